@@ -1,0 +1,67 @@
+#pragma once
+// A small command-line layer for the two executables: subcommands, --options with values,
+// --flags, generated --help, and the exit-code convention of DESIGN.md (0 success, 2 bad input
+// or usage, 1 runtime failure).
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace nsim {
+
+/// The options of one subcommand. Values are kept as text and converted on access, with
+/// errors that name the option.
+class CommandLine {
+ public:
+  CommandLine(std::string usage, std::string summary);
+
+  /// Declares `--name VALUE`; `default_value` empty and `required` false means optional.
+  CommandLine& Option(const std::string& name, const std::string& value_name,
+                      const std::string& help, const std::string& default_value = "",
+                      bool required = false);
+  /// Declares a boolean `--name`.
+  CommandLine& Flag(const std::string& name, const std::string& help);
+
+  /// Parses argv[first..argc). Throws InputError naming an unknown option, a missing value or
+  /// a missing required option (unless --help was given).
+  void Parse(int argc, char** argv, int first);
+
+  bool help_requested() const { return help_; }
+  std::string Help() const;
+
+  bool Has(const std::string& name) const;  ///< given on the command line or defaulted
+  std::string GetString(const std::string& name) const;
+  double GetDouble(const std::string& name) const;
+  long GetInt(const std::string& name) const;
+  bool GetFlag(const std::string& name) const;
+
+ private:
+  struct Spec {
+    std::string value_name, help, default_value;
+    bool is_flag = false, required = false;
+  };
+  std::string usage_, summary_;
+  std::vector<std::string> order_;
+  std::map<std::string, Spec> specs_;
+  std::map<std::string, std::string> values_;
+  bool help_ = false;
+};
+
+/// Parses a number from text; throws InputError "<what>: expected a number, got '<text>'".
+double ParseDouble(const std::string& text, const std::string& what);
+long ParseInt(const std::string& text, const std::string& what);
+
+/// One subcommand of an executable.
+struct Subcommand {
+  std::string name;
+  std::string summary;
+  std::function<int(int argc, char** argv)> run;  ///< argv[0] is the subcommand name
+};
+
+/// Dispatches argv[1] to a subcommand and applies the exit-code convention: InputError -> 2,
+/// any other exception -> 1, both with a message on stderr prefixed by the program name.
+int RunSubcommands(const std::string& program, const std::string& summary,
+                   const std::vector<Subcommand>& subcommands, int argc, char** argv);
+
+}  // namespace nsim
