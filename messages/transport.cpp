@@ -1,0 +1,228 @@
+#include "messages/transport.h"
+
+#include <dds/dds.h>
+
+#include <filesystem>
+#include <stdexcept>
+
+#include "common/core/clock.h"
+#include "common/core/error.h"
+#include "messages/convert.h"
+
+namespace nsim::transport {
+namespace {
+
+dds_duration_t ToDuration(double seconds) {
+  return seconds > 0 ? static_cast<dds_duration_t>(seconds * 1e9) : DDS_INFINITY;
+}
+
+int32_t Checked(int32_t rc, const char* what) {
+  if (rc < 0) throw std::runtime_error(Str("DDS: ", what, " failed: ", dds_strretcode(rc)));
+  return rc;
+}
+
+/// QoS of a profile; `writer` selects the offered (writer) or requested (reader) side.
+dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+  const int depth = (profile == Qos::kRecording && !writer) ? c.recording_depth : 1;
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
+  dds_qset_durability(q, profile == Qos::kStatus ? DDS_DURABILITY_TRANSIENT_LOCAL
+                                                 : DDS_DURABILITY_VOLATILE);
+  // a writer asserts liveliness within its lease; a reader accepts any lease, so processes
+  // with different leases still match and each writer's own lease decides when it is dead
+  dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC,
+                      writer ? ToDuration(c.liveliness_lease_s) : DDS_INFINITY);
+  // likewise a writer offers the configured deadline and a reader requests it, except for the
+  // status topic, which is written on change only
+  if (profile != Qos::kStatus) dds_qset_deadline(q, ToDuration(c.deadline_s));
+  return q;
+}
+
+}  // namespace
+
+void TransportConfig::Validate() const {
+  if (domain_id < 0 || domain_id > 232)
+    throw InputError(Str("dds.domain_id must be in 0..232, got ", domain_id));
+  if (partition.empty()) throw InputError("dds.partition must not be empty");
+  if (!config_file.empty() && !std::filesystem::is_regular_file(config_file))
+    throw InputError(Str("dds.config_file: no such file '", config_file, "'"));
+  if (!(liveliness_lease_s > 0))
+    throw InputError(Str("dds.liveliness_lease must be > 0 (s), got ", liveliness_lease_s));
+  if (!(deadline_s >= 0)) throw InputError(Str("dds.deadline must be >= 0 (s), got ", deadline_s));
+  if (recording_depth < 1)
+    throw InputError(Str("dds.recording_depth must be >= 1, got ", recording_depth));
+}
+
+Participant::Participant(const TransportConfig& config) : config_(config) {
+  config_.Validate();
+  if (!config_.config_file.empty()) {
+    const std::string uri =
+        "file://" + std::filesystem::absolute(config_.config_file).lexically_normal().string();
+    const dds_entity_t domain = dds_create_domain(config_.domain_id, uri.c_str());
+    // a domain already created in this process (another participant) is reused as it is
+    if (domain < 0 && domain != DDS_RETCODE_PRECONDITION_NOT_MET)
+      throw std::runtime_error(Str("DDS: cannot create domain ", config_.domain_id, " from '",
+                                   config_.config_file, "': ", dds_strretcode(domain)));
+    if (domain > 0) domain_ = domain;
+  }
+  participant_ = Checked(dds_create_participant(config_.domain_id, nullptr, nullptr),
+                         "create participant");
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_partition1(qos, config_.partition.c_str());
+  publisher_ = dds_create_publisher(participant_, qos, nullptr);
+  subscriber_ = dds_create_subscriber(participant_, qos, nullptr);
+  dds_delete_qos(qos);
+  Checked(publisher_, "create publisher");
+  Checked(subscriber_, "create subscriber");
+}
+
+Participant::~Participant() {
+  dds_delete(participant_);
+  if (domain_ > 0) dds_delete(domain_);
+}
+
+int32_t Participant::TopicFor(const void* descriptor, const char* name) {
+  for (const auto& [d, t] : topics_)
+    if (d == descriptor) return t;
+  const dds_entity_t topic = Checked(
+      dds_create_topic(participant_, static_cast<const dds_topic_descriptor_t*>(descriptor), name,
+                       nullptr, nullptr),
+      "create topic");
+  topics_.emplace_back(descriptor, topic);
+  return topic;
+}
+
+template <typename Sample>
+struct Writer<Sample>::Scratch {
+  typename MessageTraits<Sample>::Msg msg{};
+  ConvertScratch convert;
+};
+
+template <typename Sample>
+Writer<Sample>::Writer(Participant& participant, Qos qos) : scratch_(std::make_unique<Scratch>()) {
+  using Traits = MessageTraits<Sample>;
+  const int32_t topic = participant.TopicFor(Traits::descriptor(), Traits::kTopic);
+  dds_qos_t* q = MakeQos(participant.config(), qos, /*writer=*/true);
+  writer_ = dds_create_writer(participant.publisher(), topic, q, nullptr);
+  dds_delete_qos(q);
+  Checked(writer_, "create writer");
+}
+
+template <typename Sample>
+Writer<Sample>::~Writer() {
+  dds_delete(writer_);
+}
+
+template <typename Sample>
+void Writer<Sample>::Write(const Sample& sample) {
+  ToMessage(sample, scratch_->msg, scratch_->convert);
+  scratch_->msg.stamp.wall_time_ns = WallTimeNs();
+  Checked(dds_write(writer_, &scratch_->msg), "write");
+}
+
+template <typename Sample>
+int Writer<Sample>::matched_readers() const {
+  dds_publication_matched_status_t st;
+  Checked(dds_get_publication_matched_status(writer_, &st), "get publication matched status");
+  return static_cast<int>(st.current_count);
+}
+
+template <typename Sample>
+bool Writer<Sample>::WaitForReaders(int count, double timeout_s) const {
+  const double deadline = MonotonicSeconds() + timeout_s;
+  while (matched_readers() < count) {
+    if (MonotonicSeconds() > deadline) return false;
+    dds_sleepfor(DDS_MSECS(5));
+  }
+  return true;
+}
+
+template <typename Sample>
+bool Writer<Sample>::WaitForAcks(double timeout_s) const {
+  return dds_wait_for_acks(writer_, ToDuration(timeout_s)) == DDS_RETCODE_OK;
+}
+
+template <typename Sample>
+Reader<Sample>::Reader(Participant& participant, Qos qos) {
+  using Traits = MessageTraits<Sample>;
+  const int32_t topic = participant.TopicFor(Traits::descriptor(), Traits::kTopic);
+  dds_qos_t* q = MakeQos(participant.config(), qos, /*writer=*/false);
+  reader_ = dds_create_reader(participant.subscriber(), topic, q, nullptr);
+  dds_delete_qos(q);
+  Checked(reader_, "create reader");
+  Checked(dds_set_status_mask(reader_, DDS_DATA_AVAILABLE_STATUS | DDS_LIVELINESS_CHANGED_STATUS |
+                                           DDS_REQUESTED_DEADLINE_MISSED_STATUS |
+                                           DDS_SUBSCRIPTION_MATCHED_STATUS),
+          "set status mask");
+  waitset_ = Checked(dds_create_waitset(participant.handle()), "create waitset");
+  Checked(dds_waitset_attach(waitset_, reader_, reader_), "attach reader");
+}
+
+template <typename Sample>
+Reader<Sample>::~Reader() {
+  dds_delete(waitset_);
+  dds_delete(reader_);
+}
+
+template <typename Sample>
+bool Reader<Sample>::Wait(double timeout_s) {
+  return dds_waitset_wait(waitset_, nullptr, 0, ToDuration(timeout_s)) > 0;
+}
+
+template <typename Sample>
+size_t Reader<Sample>::Take(std::vector<Sample>& out) {
+  using Msg = typename MessageTraits<Sample>::Msg;
+  constexpr int kBatch = 64;
+  size_t taken = 0;
+  while (true) {
+    void* buf[kBatch] = {};  // loaned take needs null pointers
+    dds_sample_info_t info[kBatch];
+    const int n = dds_take(reader_, buf, info, kBatch, kBatch);
+    if (n < 0) throw std::runtime_error(Str("DDS: take failed: ", dds_strretcode(n)));
+    for (int i = 0; i < n; ++i) {
+      if (!info[i].valid_data) continue;
+      Sample sample;
+      const std::string error = FromMessage(*static_cast<const Msg*>(buf[i]), sample);
+      if (!error.empty()) {
+        ++health_.invalid;
+        health_.last_invalid = error;
+        continue;
+      }
+      out.push_back(std::move(sample));
+      ++taken;
+    }
+    if (n > 0) dds_return_loan(reader_, buf, n);
+    if (n < kBatch) break;
+  }
+  return taken;
+}
+
+template <typename Sample>
+ReaderHealth Reader<Sample>::health() {
+  dds_liveliness_changed_status_t live;
+  Checked(dds_get_liveliness_changed_status(reader_, &live), "get liveliness status");
+  health_.writers_alive = static_cast<int>(live.alive_count);
+  if (live.not_alive_count_change > 0) health_.liveliness_lost += live.not_alive_count_change;
+  if (live.alive_count_change < 0) health_.writers_gone += -live.alive_count_change;
+  dds_requested_deadline_missed_status_t dl;
+  Checked(dds_get_requested_deadline_missed_status(reader_, &dl), "get deadline status");
+  health_.deadline_missed = dl.total_count;
+  dds_subscription_matched_status_t sm;
+  Checked(dds_get_subscription_matched_status(reader_, &sm), "get subscription matched status");
+  health_.writers_matched = static_cast<int>(sm.current_count);
+  return health_;
+}
+
+template class Writer<MarkerFrame>;
+template class Writer<RobotState>;
+template class Writer<EntryPoint>;
+template class Writer<RobotTarget>;
+template class Writer<SimStatus>;
+template class Reader<MarkerFrame>;
+template class Reader<RobotState>;
+template class Reader<EntryPoint>;
+template class Reader<RobotTarget>;
+template class Reader<SimStatus>;
+
+}  // namespace nsim::transport

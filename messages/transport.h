@@ -1,0 +1,121 @@
+#pragma once
+// A thin RAII layer over the Cyclone DDS C API: a participant (domain, partition, config file),
+// typed writers and readers of the internal sample structs (common/core/samples.h), and the QoS
+// profiles of the project. This header does not include Cyclone: only messages/ knows the C
+// types; conversion between them and the samples happens in messages/convert.cpp.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/core/samples.h"
+
+namespace nsim::transport {
+
+/// How a process joins the DDS data space.
+struct TransportConfig {
+  int domain_id = 0;                ///< DDS domain id, 0..232
+  std::string partition = "nsim";  ///< DDS partition; processes only talk within one partition
+  std::string config_file;          ///< Cyclone XML file; empty: Cyclone's default (CYCLONEDDS_URI)
+  double liveliness_lease_s = 0.5;  ///< writers assert liveliness within this lease (s); a reader
+                                    ///< reports a writer dead when it expires
+  double deadline_s = 2.0;          ///< max period between samples of a stream (s); 0 = no deadline
+  int recording_depth = 4096;       ///< reader history depth of the kRecording profile (samples)
+
+  /// Throws InputError naming the field when a value is out of range or the file is missing.
+  void Validate() const;
+};
+
+/// QoS profiles.
+enum class Qos {
+  kStateStream,  ///< MarkerFrame, RobotState, EntryPoint: reliable, keep-last 1, volatile
+  kTarget,       ///< RobotTarget: reliable, keep-last 1, volatile
+  kStatus,       ///< SimStatus: reliable, keep-last 1, transient-local (late joiners get the last)
+  kRecording,    ///< reader side of a state stream that must keep every sample: reliable,
+                 ///< keep-last recording_depth (compatible with kStateStream writers)
+};
+
+/// A DDS participant with one publisher and one subscriber in the configured partition.
+class Participant {
+ public:
+  /// Creates the domain from config.config_file (if given) and the participant. Throws
+  /// InputError for a bad config, std::runtime_error if DDS refuses.
+  explicit Participant(const TransportConfig& config);
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  const TransportConfig& config() const { return config_; }
+  int32_t handle() const { return participant_; }
+  int32_t publisher() const { return publisher_; }
+  int32_t subscriber() const { return subscriber_; }
+  /// The topic of a message type (created once per participant).
+  int32_t TopicFor(const void* descriptor, const char* name);
+
+ private:
+  TransportConfig config_;
+  int32_t domain_ = 0, participant_ = 0, publisher_ = 0, subscriber_ = 0;
+  std::vector<std::pair<const void*, int32_t>> topics_;
+};
+
+/// A typed writer of one sample type (MarkerFrame, RobotState, EntryPoint, RobotTarget,
+/// SimStatus). Write() stamps the wall time of sending.
+template <typename Sample>
+class Writer {
+ public:
+  Writer(Participant& participant, Qos qos);
+  ~Writer();
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  /// Publishes `sample`, setting its stamp.wall_time_ns to now. Throws std::runtime_error if
+  /// DDS refuses.
+  void Write(const Sample& sample);
+  /// Number of matched readers now.
+  int matched_readers() const;
+  /// Waits until at least `count` readers are matched; false on timeout.
+  bool WaitForReaders(int count, double timeout_s) const;
+  /// Waits until every matched reliable reader acknowledged all samples; false on timeout.
+  bool WaitForAcks(double timeout_s) const;
+
+ private:
+  struct Scratch;
+  int32_t writer_ = 0;
+  std::unique_ptr<Scratch> scratch_;
+};
+
+/// What a reader knows about the writers it is matched with.
+struct ReaderHealth {
+  int writers_matched = 0;         ///< writers currently matched
+  int writers_alive = 0;           ///< matched writers whose liveliness is asserted
+  uint64_t liveliness_lost = 0;    ///< times a writer's lease expired (dead writer)
+  uint64_t writers_gone = 0;       ///< times a writer stopped being alive (lost or deleted)
+  uint64_t deadline_missed = 0;    ///< times the stream's deadline passed without a sample
+  uint64_t invalid = 0;            ///< samples dropped because they failed validation
+  std::string last_invalid;        ///< why the last dropped sample was invalid
+};
+
+/// A typed reader of one sample type.
+template <typename Sample>
+class Reader {
+ public:
+  Reader(Participant& participant, Qos qos);
+  ~Reader();
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  /// Blocks until data arrives or the reader's liveliness/deadline status changes, at most
+  /// `timeout_s`. Returns false on timeout.
+  bool Wait(double timeout_s);
+  /// Appends every available sample to `out` (in reception order); returns how many.
+  size_t Take(std::vector<Sample>& out);
+  /// Polls and accumulates the liveliness, deadline and match statuses.
+  ReaderHealth health();
+
+ private:
+  int32_t reader_ = 0, waitset_ = 0;
+  ReaderHealth health_;
+};
+
+}  // namespace nsim::transport

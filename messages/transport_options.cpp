@@ -1,0 +1,25 @@
+#include "messages/transport_options.h"
+
+namespace nsim::transport {
+
+void AddTransportOptions(CommandLine& cli) {
+  const TransportConfig d;
+  cli.Option("dds-config", "FILE", "Cyclone DDS XML configuration", NSIM_DEFAULT_DDS_CONFIG)
+      .Option("domain", "N", "DDS domain id", std::to_string(d.domain_id))
+      .Option("partition", "NAME", "DDS partition (both processes must use the same)", d.partition)
+      .Option("lease", "S", "liveliness lease of this process's writers (s)", "0.5")
+      .Option("deadline", "S", "max period between samples of a stream (s), 0 = none", "2");
+}
+
+TransportConfig TransportFromCli(const CommandLine& cli) {
+  TransportConfig c;
+  c.config_file = cli.GetString("dds-config");
+  c.domain_id = static_cast<int>(cli.GetInt("domain"));
+  c.partition = cli.GetString("partition");
+  c.liveliness_lease_s = cli.GetDouble("lease");
+  c.deadline_s = cli.GetDouble("deadline");
+  c.Validate();
+  return c;
+}
+
+}  // namespace nsim::transport
