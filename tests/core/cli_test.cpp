@@ -1,0 +1,92 @@
+#include "common/core/cli.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "common/core/error.h"
+
+namespace nsim {
+namespace {
+
+struct Argv {
+  explicit Argv(std::vector<std::string> a) : args(std::move(a)) {
+    for (auto& s : args) ptrs.push_back(s.data());
+  }
+  int argc() { return static_cast<int>(ptrs.size()); }
+  char** argv() { return ptrs.data(); }
+  std::vector<std::string> args;
+  std::vector<char*> ptrs;
+};
+
+CommandLine MakeCli() {
+  CommandLine cli("prog cmd", "test");
+  cli.Option("markers", "FILE", "input", "", true).Option("rate", "X", "rate", "1.5").Flag("quiet", "q");
+  return cli;
+}
+
+TEST(CommandLine, ParsesOptionsFlagsAndDefaults) {
+  Argv a({"cmd", "--markers", "in.csv", "--quiet"});
+  CommandLine cli = MakeCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_EQ(cli.GetString("markers"), "in.csv");
+  EXPECT_DOUBLE_EQ(cli.GetDouble("rate"), 1.5);
+  EXPECT_TRUE(cli.GetFlag("quiet"));
+}
+
+TEST(CommandLine, AcceptsEqualsSyntax) {
+  Argv a({"cmd", "--markers=x.csv", "--rate=3"});
+  CommandLine cli = MakeCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_EQ(cli.GetString("markers"), "x.csv");
+  EXPECT_DOUBLE_EQ(cli.GetDouble("rate"), 3.0);
+  EXPECT_FALSE(cli.GetFlag("quiet"));
+}
+
+void ExpectInputError(std::vector<std::string> args, const std::string& fragment) {
+  Argv a(std::move(args));
+  CommandLine cli = MakeCli();
+  try {
+    cli.Parse(a.argc(), a.argv(), 1);
+    cli.GetDouble("rate");
+    FAIL() << "expected InputError containing '" << fragment << "'";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+TEST(CommandLine, BadInputNamesTheProblem) {
+  ExpectInputError({"cmd", "--markers", "a", "--bogus", "1"}, "unknown option --bogus");
+  ExpectInputError({"cmd"}, "missing required option --markers");
+  ExpectInputError({"cmd", "--markers"}, "--markers expects a value");
+  ExpectInputError({"cmd", "--markers", "a", "--rate", "fast"}, "--rate: expected a finite number, got 'fast'");
+  ExpectInputError({"cmd", "--markers", "a", "--rate", "nan"}, "--rate: expected a finite number");
+  ExpectInputError({"cmd", "--markers", "a", "stray"}, "unexpected argument 'stray'");
+  ExpectInputError({"cmd", "--markers", "a", "--quiet=1"}, "--quiet takes no value");
+}
+
+TEST(CommandLine, HelpSkipsRequiredChecksAndListsOptions) {
+  Argv a({"cmd", "--help"});
+  CommandLine cli = MakeCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_TRUE(cli.help_requested());
+  const std::string help = cli.Help();
+  EXPECT_NE(help.find("--markers FILE"), std::string::npos);
+  EXPECT_NE(help.find("[default: 1.5]"), std::string::npos);
+}
+
+TEST(RunSubcommands, ExitCodesFollowTheConvention) {
+  std::vector<Subcommand> cmds = {
+      {"ok", "", [](int, char**) { return 0; }},
+      {"bad", "", [](int, char**) -> int { throw InputError("bad value"); }},
+      {"boom", "", [](int, char**) -> int { throw std::runtime_error("solver diverged"); }}};
+  for (auto [name, code] : std::vector<std::pair<std::string, int>>{{"ok", 0}, {"bad", 2}, {"boom", 1}, {"nope", 2}}) {
+    Argv a({"prog", name});
+    EXPECT_EQ(RunSubcommands("prog", "", cmds, a.argc(), a.argv()), code) << name;
+  }
+  Argv none({"prog"});
+  EXPECT_EQ(RunSubcommands("prog", "", cmds, none.argc(), none.argv()), 2);
+}
+
+}  // namespace
+}  // namespace nsim

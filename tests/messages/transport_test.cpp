@@ -1,0 +1,129 @@
+// In-process checks of the transport over loopback: delivery and order, QoS profiles,
+// late-joiner status, dropped invalid samples, and health when a writer goes away.
+#include "messages/transport.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <limits>
+
+#include "common/core/clock.h"
+#include "common/core/error.h"
+
+namespace nsim::transport {
+namespace {
+
+TransportConfig LoopbackConfig() {
+  TransportConfig c;
+  c.config_file = NSIM_SOURCE_DIR "/configs/dds/local.xml";
+  c.domain_id = 17;
+  c.partition = "transport_test_" + std::to_string(getpid());
+  c.liveliness_lease_s = 0.3;
+  return c;
+}
+
+template <typename Sample>
+std::vector<Sample> TakeUntil(Reader<Sample>& reader, size_t count, double timeout_s) {
+  std::vector<Sample> out;
+  const double end = MonotonicSeconds() + timeout_s;
+  while (out.size() < count && MonotonicSeconds() < end) {
+    reader.Wait(0.05);
+    reader.Take(out);
+  }
+  return out;
+}
+
+TEST(Transport, BadConfigIsAnInputError) {
+  TransportConfig c = LoopbackConfig();
+  c.config_file = "/nonexistent/cyclone.xml";
+  EXPECT_THROW(Participant{c}, InputError);
+  c = LoopbackConfig();
+  c.domain_id = 500;
+  EXPECT_THROW(Participant{c}, InputError);
+  c = LoopbackConfig();
+  c.liveliness_lease_s = -1;
+  EXPECT_THROW(Participant{c}, InputError);
+}
+
+TEST(Transport, FramesArriveInOrderAndWallTimeIsStamped) {
+  Participant p(LoopbackConfig());
+  Reader<MarkerFrame> reader(p, Qos::kRecording);
+  Writer<MarkerFrame> writer(p, Qos::kStateStream);
+  ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
+  const int64_t before = WallTimeNs();
+  for (int k = 0; k < 50; ++k) {
+    MarkerFrame f;
+    f.stamp.seq = k;
+    f.stamp.sim_time = 0.01 * k;
+    f.p_WM = {{k * 1e-3, 0, 0}};
+    writer.Write(f);
+  }
+  const auto got = TakeUntil(reader, 50, 10.0);
+  ASSERT_EQ(got.size(), 50u);
+  for (int k = 0; k < 50; ++k) {
+    EXPECT_EQ(got[k].stamp.seq, static_cast<uint64_t>(k));
+    EXPECT_EQ(got[k].p_WM[0].x(), k * 1e-3);
+    EXPECT_GE(got[k].stamp.wall_time_ns, before);
+  }
+  EXPECT_TRUE(writer.WaitForAcks(5.0));
+}
+
+TEST(Transport, LateJoinerGetsTheLastStatus) {
+  Participant p(LoopbackConfig());
+  Writer<SimStatus> writer(p, Qos::kStatus);
+  SimStatus s;
+  s.sender = "direct_sim";
+  s.state = RunState::kRunning;
+  writer.Write(s);
+  s.state = RunState::kFinished;
+  s.last_seq = 12;
+  writer.Write(s);
+  Reader<SimStatus> reader(p, Qos::kStatus);  // created after both writes
+  const auto got = TakeUntil(reader, 1, 10.0);
+  ASSERT_EQ(got.size(), 1u);  // keep-last 1: only the newest
+  EXPECT_EQ(got[0].state, RunState::kFinished);
+  EXPECT_EQ(got[0].last_seq, 12u);
+}
+
+TEST(Transport, InvalidSamplesAreDroppedAndCounted) {
+  Participant p(LoopbackConfig());
+  Reader<MarkerFrame> reader(p, Qos::kRecording);
+  Writer<MarkerFrame> writer(p, Qos::kStateStream);
+  ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
+  MarkerFrame f;
+  f.p_WM = {{std::numeric_limits<double>::quiet_NaN(), 0, 0}};
+  writer.Write(f);
+  f.stamp.seq = 1;
+  f.p_WM = {{1, 2, 3}};
+  writer.Write(f);
+  const auto got = TakeUntil(reader, 1, 10.0);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].stamp.seq, 1u);
+  const ReaderHealth h = reader.health();
+  EXPECT_EQ(h.invalid, 1u);
+  EXPECT_NE(h.last_invalid.find("not finite"), std::string::npos);
+}
+
+TEST(Transport, ReaderSeesWriterComeAndGo) {
+  Participant p(LoopbackConfig());
+  Reader<RobotTarget> reader(p, Qos::kTarget);
+  {
+    Writer<RobotTarget> writer(p, Qos::kTarget);
+    ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
+    writer.Write(RobotTarget{});
+    ASSERT_EQ(TakeUntil(reader, 1, 10.0).size(), 1u);
+    EXPECT_EQ(reader.health().writers_alive, 1);
+  }
+  const double end = MonotonicSeconds() + 5.0;
+  ReaderHealth h = reader.health();
+  while (h.writers_matched > 0 && MonotonicSeconds() < end) {
+    reader.Wait(0.05);
+    h = reader.health();
+  }
+  EXPECT_EQ(h.writers_matched, 0);
+  EXPECT_EQ(h.writers_alive, 0);
+  EXPECT_GE(h.writers_gone, 1u);
+}
+
+}  // namespace
+}  // namespace nsim::transport
