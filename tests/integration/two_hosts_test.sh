@@ -28,7 +28,6 @@ ip -n "$ns2" addr add 10.77.0.2/24 dev "${tag}1"
 for ns in "$ns1" "$ns2"; do ip -n "$ns" link set lo up; done
 ip -n "$ns1" link set "${tag}0" up
 ip -n "$ns2" link set "${tag}1" up
-ip netns exec "$ns1" ping -c 1 -W 2 10.77.0.2 >/dev/null || { echo "FAIL: no link between the namespaces"; exit 1; }
 
 # 200 frames, 2 markers, 100 Hz
 awk 'BEGIN { print "t,m0_x,m0_y,m0_z,m1_x,m1_y,m1_z";
