@@ -5,6 +5,6 @@
 int main(int argc, char** argv) {
   return nsim::RunSubcommands(
       "direct_sim", "The direct simulation: the patient, the robot and the needle.",
-      {{"replay", "publish a recorded marker stream (--markers IN.csv)", nsim::RunReplay}},
-      argc, argv);
+      {{"replay", "publish a recorded marker stream (--markers IN.csv)", nsim::RunReplay}}, argc,
+      argv);
 }

@@ -36,7 +36,8 @@ int RunReplay(int argc, char** argv) {
 
   const MarkerStream stream = ReadMarkerCsv(cli.GetString("markers"));
   if (stream.num_markers > 64)
-    throw InputError(Str("a MarkerFrame carries at most 64 markers, the stream has ", stream.num_markers));
+    throw InputError(
+        Str("a MarkerFrame carries at most 64 markers, the stream has ", stream.num_markers));
   const transport::TransportConfig tc = transport::TransportFromCli(cli);
   InstallInterruptHandler();
 
@@ -53,8 +54,9 @@ int RunReplay(int argc, char** argv) {
   publish_status();
 
   if (wait_readers > 0 && !markers.WaitForReaders(static_cast<int>(wait_readers), wait_timeout)) {
-    std::cerr << "direct_sim replay: no MarkerFrame reader after " << wait_timeout
-              << " s (is inverse_sim running with the same --domain, --partition and DDS config?)\n";
+    std::cerr
+        << "direct_sim replay: no MarkerFrame reader after " << wait_timeout
+        << " s (is inverse_sim running with the same --domain, --partition and DDS config?)\n";
     return 1;
   }
   const auto& frames = stream.frames;
@@ -89,10 +91,11 @@ int RunReplay(int argc, char** argv) {
   publish_status();
   // let reliable readers receive the tail of the stream and the final status before leaving
   const bool acked = markers.WaitForAcks(5.0) && status_writer.WaitForAcks(5.0);
-  std::printf("replay: sent %lu frames of %d markers in %.3f s (%.1f Hz), max lateness %.2f ms%s%s\n",
-              static_cast<unsigned long>(status.frames_sent), stream.num_markers, elapsed,
-              status.rate_hz, 1e3 * max_lateness, acked ? "" : ", not all acknowledged",
-              interrupted ? ", interrupted" : "");
+  std::printf(
+      "replay: sent %lu frames of %d markers in %.3f s (%.1f Hz), max lateness %.2f ms%s%s\n",
+      static_cast<unsigned long>(status.frames_sent), stream.num_markers, elapsed, status.rate_hz,
+      1e3 * max_lateness, acked ? "" : ", not all acknowledged",
+      interrupted ? ", interrupted" : "");
   return interrupted ? 1 : 0;
 }
 

@@ -5,6 +5,6 @@
 int main(int argc, char** argv) {
   return nsim::RunSubcommands(
       "inverse_sim", "The inverse simulation: the controller and its tools.",
-      {{"record", "record received marker frames to CSV (--out OUT.csv)", nsim::RunRecord}},
-      argc, argv);
+      {{"record", "record received marker frames to CSV (--out OUT.csv)", nsim::RunRecord}}, argc,
+      argv);
 }

@@ -23,11 +23,16 @@ enum class Ending { kEndOfStream, kPublisherLost, kPublisherLeft, kTimeout, kInt
 
 const char* EndingName(Ending e) {
   switch (e) {
-    case Ending::kEndOfStream: return "end_of_stream";
-    case Ending::kPublisherLost: return "publisher_lost";
-    case Ending::kPublisherLeft: return "publisher_left";
-    case Ending::kTimeout: return "timeout";
-    case Ending::kInterrupted: return "interrupted";
+    case Ending::kEndOfStream:
+      return "end_of_stream";
+    case Ending::kPublisherLost:
+      return "publisher_lost";
+    case Ending::kPublisherLeft:
+      return "publisher_left";
+    case Ending::kTimeout:
+      return "timeout";
+    case Ending::kInterrupted:
+      return "interrupted";
   }
   return "?";
 }
@@ -35,13 +40,15 @@ const char* EndingName(Ending e) {
 }  // namespace
 
 int RunRecord(int argc, char** argv) {
-  CommandLine cli("inverse_sim record --out OUT.csv [options]",
-                  "Record every received MarkerFrame into a marker CSV until the end of the stream.");
+  CommandLine cli(
+      "inverse_sim record --out OUT.csv [options]",
+      "Record every received MarkerFrame into a marker CSV until the end of the stream.");
   cli.Option("out", "OUT.csv", "marker CSV to write", "", true)
       .Option("summary", "FILE.json", "also write the counts as JSON")
       .Option("timeout", "S", "give up after S seconds in all", "600")
       .Option("start-timeout", "S", "give up if no frame arrives within S seconds", "60")
-      .Option("end-grace", "S", "after the end-of-stream status, wait S seconds for late frames", "1")
+      .Option("end-grace", "S", "after the end-of-stream status, wait S seconds for late frames",
+              "1")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli);
   cli.Parse(argc, argv, 1);
@@ -55,7 +62,7 @@ int RunRecord(int argc, char** argv) {
   if (!(timeout > 0) || !(start_timeout > 0) || !(end_grace >= 0))
     throw InputError("--timeout and --start-timeout must be > 0 and --end-grace >= 0 (s)");
   const bool quiet = cli.GetFlag("quiet");
-  { // fail on an unwritable path now rather than after the first frame
+  {  // fail on an unwritable path now rather than after the first frame
     std::ofstream probe(out_path);
     if (!probe) throw InputError(Str(out_path, ": cannot open for writing"));
   }
@@ -88,10 +95,12 @@ int RunRecord(int argc, char** argv) {
     for (const MarkerFrame& f : frames) {
       last_frame_at = now;
       if (seqs.Observe(f.stamp.seq) == SequenceTracker::Verdict::kLate) continue;
-      if (csv && (static_cast<int>(f.p_WM.size()) != csv->num_markers() || !(f.stamp.sim_time > last_time))) {
+      if (csv && (static_cast<int>(f.p_WM.size()) != csv->num_markers() ||
+                  !(f.stamp.sim_time > last_time))) {
         ++invalid;
-        last_invalid = Str("frame ", f.stamp.seq, ": ", f.p_WM.size(), " markers at t = ", f.stamp.sim_time,
-                           " (expected ", csv->num_markers(), " markers and t > ", last_time, ")");
+        last_invalid =
+            Str("frame ", f.stamp.seq, ": ", f.p_WM.size(), " markers at t = ", f.stamp.sim_time,
+                " (expected ", csv->num_markers(), " markers and t > ", last_time, ")");
         continue;
       }
       if (f.p_WM.empty() || f.p_WM.size() > 64) {
@@ -161,8 +170,10 @@ int RunRecord(int argc, char** argv) {
               static_cast<unsigned long>(seqs.out_of_order()), static_cast<unsigned long>(invalid));
   if (!last_invalid.empty()) std::printf("record: last invalid frame: %s\n", last_invalid.c_str());
   if (ending == Ending::kPublisherLost)
-    std::printf("record: publisher lost: its liveliness lease (%.3f s) expired %.3f s after its last frame\n",
-                tc.liveliness_lease_s, silent_for);
+    std::printf(
+        "record: publisher lost: its liveliness lease (%.3f s) expired %.3f s after its last "
+        "frame\n",
+        tc.liveliness_lease_s, silent_for);
   if (!csv) std::printf("record: no frame received; %s holds no data\n", out_path.c_str());
   if (cli.Has("summary")) {
     nlohmann::json j = {{"ending", EndingName(ending)},

@@ -75,7 +75,8 @@ void CopyString(const std::string& s, char* dst, size_t capacity) {
 }  // namespace
 
 void ToMessage(const MarkerFrame& sample, nsim_msgs_MarkerFrame& msg, ConvertScratch& scratch) {
-  NSIM_CHECK(sample.p_WM.size() <= 64, "at most 64 markers fit a MarkerFrame, got ", sample.p_WM.size());
+  NSIM_CHECK(sample.p_WM.size() <= 64, "at most 64 markers fit a MarkerFrame, got ",
+             sample.p_WM.size());
   ToStamp(sample.stamp, msg.stamp);
   scratch.vec3.resize(sample.p_WM.size());
   for (size_t i = 0; i < sample.p_WM.size(); ++i) scratch.vec3[i] = ToVec3(sample.p_WM[i]);

@@ -14,12 +14,12 @@ namespace nsim::transport {
 template <typename Sample>
 struct MessageTraits;
 
-#define NSIM_MESSAGE_TRAITS(SampleT, MsgT, TopicName)                                  \
-  template <>                                                                          \
-  struct MessageTraits<SampleT> {                                                      \
-    using Msg = MsgT;                                                                  \
-    static const dds_topic_descriptor_t* descriptor() { return &MsgT##_desc; }         \
-    static constexpr const char* kTopic = TopicName;                                   \
+#define NSIM_MESSAGE_TRAITS(SampleT, MsgT, TopicName)                          \
+  template <>                                                                  \
+  struct MessageTraits<SampleT> {                                              \
+    using Msg = MsgT;                                                          \
+    static const dds_topic_descriptor_t* descriptor() { return &MsgT##_desc; } \
+    static constexpr const char* kTopic = TopicName;                           \
   };
 NSIM_MESSAGE_TRAITS(MarkerFrame, nsim_msgs_MarkerFrame, "nsim_MarkerFrame")
 NSIM_MESSAGE_TRAITS(RobotState, nsim_msgs_RobotState, "nsim_RobotState")

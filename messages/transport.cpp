@@ -27,8 +27,8 @@ dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
   const int depth = (profile == Qos::kRecording && !writer) ? c.recording_depth : 1;
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
-  dds_qset_durability(q, profile == Qos::kStatus ? DDS_DURABILITY_TRANSIENT_LOCAL
-                                                 : DDS_DURABILITY_VOLATILE);
+  dds_qset_durability(
+      q, profile == Qos::kStatus ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
   // a writer asserts liveliness within its lease; a reader accepts any lease, so processes
   // with different leases still match and each writer's own lease decides when it is dead
   dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC,
@@ -66,8 +66,8 @@ Participant::Participant(const TransportConfig& config) : config_(config) {
                                    config_.config_file, "': ", dds_strretcode(domain)));
     if (domain > 0) domain_ = domain;
   }
-  participant_ = Checked(dds_create_participant(config_.domain_id, nullptr, nullptr),
-                         "create participant");
+  participant_ =
+      Checked(dds_create_participant(config_.domain_id, nullptr, nullptr), "create participant");
   dds_qos_t* qos = dds_create_qos();
   dds_qset_partition1(qos, config_.partition.c_str());
   publisher_ = dds_create_publisher(participant_, qos, nullptr);
@@ -85,10 +85,10 @@ Participant::~Participant() {
 int32_t Participant::TopicFor(const void* descriptor, const char* name) {
   for (const auto& [d, t] : topics_)
     if (d == descriptor) return t;
-  const dds_entity_t topic = Checked(
-      dds_create_topic(participant_, static_cast<const dds_topic_descriptor_t*>(descriptor), name,
-                       nullptr, nullptr),
-      "create topic");
+  const dds_entity_t topic =
+      Checked(dds_create_topic(participant_, static_cast<const dds_topic_descriptor_t*>(descriptor),
+                               name, nullptr, nullptr),
+              "create topic");
   topics_.emplace_back(descriptor, topic);
   return topic;
 }

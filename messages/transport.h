@@ -16,7 +16,7 @@ namespace nsim::transport {
 /// How a process joins the DDS data space.
 struct TransportConfig {
   int domain_id = 0;                ///< DDS domain id, 0..232
-  std::string partition = "nsim";  ///< DDS partition; processes only talk within one partition
+  std::string partition = "nsim";   ///< DDS partition; processes only talk within one partition
   std::string config_file;          ///< Cyclone XML file; empty: Cyclone's default (CYCLONEDDS_URI)
   double liveliness_lease_s = 0.5;  ///< writers assert liveliness within this lease (s); a reader
                                     ///< reports a writer dead when it expires
@@ -87,13 +87,13 @@ class Writer {
 
 /// What a reader knows about the writers it is matched with.
 struct ReaderHealth {
-  int writers_matched = 0;         ///< writers currently matched
-  int writers_alive = 0;           ///< matched writers whose liveliness is asserted
-  uint64_t liveliness_lost = 0;    ///< times a writer's lease expired (dead writer)
-  uint64_t writers_gone = 0;       ///< times a writer stopped being alive (lost or deleted)
-  uint64_t deadline_missed = 0;    ///< times the stream's deadline passed without a sample
-  uint64_t invalid = 0;            ///< samples dropped because they failed validation
-  std::string last_invalid;        ///< why the last dropped sample was invalid
+  int writers_matched = 0;       ///< writers currently matched
+  int writers_alive = 0;         ///< matched writers whose liveliness is asserted
+  uint64_t liveliness_lost = 0;  ///< times a writer's lease expired (dead writer)
+  uint64_t writers_gone = 0;     ///< times a writer stopped being alive (lost or deleted)
+  uint64_t deadline_missed = 0;  ///< times the stream's deadline passed without a sample
+  uint64_t invalid = 0;          ///< samples dropped because they failed validation
+  std::string last_invalid;      ///< why the last dropped sample was invalid
 };
 
 /// A typed reader of one sample type.

@@ -50,7 +50,8 @@ void CommandLine::Parse(int argc, char** argv, int first) {
       continue;
     }
     if (!inline_value) {
-      if (i + 1 >= argc) throw InputError(Str("option --", name, " expects a value ", it->second.value_name));
+      if (i + 1 >= argc)
+        throw InputError(Str("option --", name, " expects a value ", it->second.value_name));
       value = argv[++i];
     }
     values_[name] = value;
@@ -69,8 +70,10 @@ std::string CommandLine::Help() const {
     const Spec& s = specs_.at(name);
     std::string left = "  --" + name + (s.is_flag ? "" : " " + s.value_name);
     out << left;
-    if (left.size() < 28) out << std::string(28 - left.size(), ' ');
-    else out << "\n" << std::string(28, ' ');
+    if (left.size() < 28)
+      out << std::string(28 - left.size(), ' ');
+    else
+      out << "\n" << std::string(28, ' ');
     out << s.help;
     if (s.required) out << " (required)";
     if (!s.default_value.empty()) out << " [default: " << s.default_value << "]";

@@ -16,8 +16,7 @@ inline int64_t WallTimeNs() {
 
 /// Monotonic time (s) from an arbitrary origin; for measuring durations and pacing loops.
 inline double MonotonicSeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 /// Sleeps until the monotonic clock reads `t_mono` (s); returns at once if it is past.

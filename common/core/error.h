@@ -30,7 +30,8 @@ std::string Str(const Parts&... parts) {
 }  // namespace nsim
 
 /// Always-on internal invariant; aborts with the condition, file and line.
-#define NSIM_CHECK(condition, ...)                                                    \
-  do {                                                                                \
-    if (!(condition)) ::nsim::AbortCheck(#condition, __FILE__, __LINE__, ::nsim::Str(__VA_ARGS__)); \
+#define NSIM_CHECK(condition, ...)                                                  \
+  do {                                                                              \
+    if (!(condition))                                                               \
+      ::nsim::AbortCheck(#condition, __FILE__, __LINE__, ::nsim::Str(__VA_ARGS__)); \
   } while (0)

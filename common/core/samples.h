@@ -13,9 +13,9 @@ namespace nsim {
 
 /// Stamp carried by every sample.
 struct Stamp {
-  uint64_t seq = 0;         ///< sequence number, strictly increasing per writer, starts at 0
-  double sim_time = 0.0;    ///< simulation time of the sampled state (s)
-  int64_t wall_time_ns = 0; ///< wall-clock time of sending (ns since the Unix epoch)
+  uint64_t seq = 0;          ///< sequence number, strictly increasing per writer, starts at 0
+  double sim_time = 0.0;     ///< simulation time of the sampled state (s)
+  int64_t wall_time_ns = 0;  ///< wall-clock time of sending (ns since the Unix epoch)
 };
 
 /// Positions of the fiducial markers at one instant.
@@ -35,7 +35,7 @@ struct RobotState {
 /// Localized skin entry point of the needle.
 struct EntryPoint {
   Stamp stamp;
-  bool punctured = false;                         ///< false until the skin is punctured
+  bool punctured = false;                          ///< false until the skin is punctured
   Eigen::Vector3d p_WP = Eigen::Vector3d::Zero();  ///< entry point in world (m)
   Eigen::Vector3d n_W = Eigen::Vector3d::UnitZ();  ///< outward skin normal at the entry (unit)
 };
@@ -59,13 +59,13 @@ enum class RunState : uint8_t { kStarting = 0, kRunning = 1, kFinished = 2, kFai
 /// Health and progress of a process.
 struct SimStatus {
   Stamp stamp;
-  std::string sender;           ///< "direct_sim" or "inverse_sim"
+  std::string sender;  ///< "direct_sim" or "inverse_sim"
   RunState state = RunState::kStarting;
-  uint64_t last_seq = 0;        ///< last data seq written (valid when state is kFinished)
-  uint64_t frames_sent = 0;     ///< data samples written so far
-  double rate_hz = 0.0;         ///< loop rate over the recent window (Hz)
-  uint8_t phase = 0;            ///< insertion phase 0 (outside), 1 (skin), 2 (liver)
-  std::string message;          ///< human-readable detail (last warning or error)
+  uint64_t last_seq = 0;     ///< last data seq written (valid when state is kFinished)
+  uint64_t frames_sent = 0;  ///< data samples written so far
+  double rate_hz = 0.0;      ///< loop rate over the recent window (Hz)
+  uint8_t phase = 0;         ///< insertion phase 0 (outside), 1 (skin), 2 (liver)
+  std::string message;       ///< human-readable detail (last warning or error)
 };
 
 }  // namespace nsim

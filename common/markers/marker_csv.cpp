@@ -18,7 +18,8 @@ std::vector<std::string> SplitCommas(const std::string& line) {
   std::string::size_type start = 0;
   while (true) {
     const auto comma = line.find(',', start);
-    out.push_back(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    out.push_back(
+        line.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
     if (comma == std::string::npos) break;
     start = comma + 1;
   }
@@ -49,21 +50,25 @@ std::string MarkerCsvHeader(int num_markers) {
 MarkerStream ParseMarkerCsv(std::istream& in, const std::string& source) {
   auto fail = [&](long line, int column, const std::string& what) -> InputError {
     if (column < 0) return InputError(Str(source, ":", line, ": ", what));
-    return InputError(Str(source, ":", line, ":", column + 1, " (", ColumnName(column), "): ", what));
+    return InputError(
+        Str(source, ":", line, ":", column + 1, " (", ColumnName(column), "): ", what));
   };
   MarkerStream stream;
   std::string line;
   long line_no = 0;
-  if (!std::getline(in, line)) throw fail(1, -1, "empty file: expected the header 't,m0_x,m0_y,m0_z,...'");
+  if (!std::getline(in, line))
+    throw fail(1, -1, "empty file: expected the header 't,m0_x,m0_y,m0_z,...'");
   ++line_no;
   const std::vector<std::string> header = SplitCommas(Trim(line));
   if (header.size() < 4 || (header.size() - 1) % 3 != 0)
-    throw fail(line_no, -1, Str("header has ", header.size(),
-                                " columns; expected 1 + 3 per marker ('t,m0_x,m0_y,m0_z,...')"));
+    throw fail(line_no, -1,
+               Str("header has ", header.size(),
+                   " columns; expected 1 + 3 per marker ('t,m0_x,m0_y,m0_z,...')"));
   for (size_t c = 0; c < header.size(); ++c) {
     if (Trim(header[c]) != ColumnName(static_cast<int>(c)))
       throw fail(line_no, static_cast<int>(c),
-                 Str("header: expected '", ColumnName(static_cast<int>(c)), "', got '", Trim(header[c]), "'"));
+                 Str("header: expected '", ColumnName(static_cast<int>(c)), "', got '",
+                     Trim(header[c]), "'"));
   }
   stream.num_markers = static_cast<int>((header.size() - 1) / 3);
 
@@ -91,8 +96,9 @@ MarkerStream ParseMarkerCsv(std::istream& in, const std::string& source) {
         throw fail(line_no, static_cast<int>(c), Str("expected a finite value, got '", cell, "'"));
     }
     if (!stream.frames.empty() && !(v[0] > stream.frames.back().stamp.sim_time))
-      throw fail(line_no, 0, Str("time must increase strictly: ", v[0], " after ",
-                                 stream.frames.back().stamp.sim_time));
+      throw fail(line_no, 0,
+                 Str("time must increase strictly: ", v[0], " after ",
+                     stream.frames.back().stamp.sim_time));
     MarkerFrame frame;
     frame.stamp.seq = stream.frames.size();
     frame.stamp.sim_time = v[0];

@@ -21,7 +21,9 @@ struct Argv {
 
 CommandLine MakeCli() {
   CommandLine cli("prog cmd", "test");
-  cli.Option("markers", "FILE", "input", "", true).Option("rate", "X", "rate", "1.5").Flag("quiet", "q");
+  cli.Option("markers", "FILE", "input", "", true)
+      .Option("rate", "X", "rate", "1.5")
+      .Flag("quiet", "q");
   return cli;
 }
 
@@ -59,7 +61,8 @@ TEST(CommandLine, BadInputNamesTheProblem) {
   ExpectInputError({"cmd", "--markers", "a", "--bogus", "1"}, "unknown option --bogus");
   ExpectInputError({"cmd"}, "missing required option --markers");
   ExpectInputError({"cmd", "--markers"}, "--markers expects a value");
-  ExpectInputError({"cmd", "--markers", "a", "--rate", "fast"}, "--rate: expected a finite number, got 'fast'");
+  ExpectInputError({"cmd", "--markers", "a", "--rate", "fast"},
+                   "--rate: expected a finite number, got 'fast'");
   ExpectInputError({"cmd", "--markers", "a", "--rate", "nan"}, "--rate: expected a finite number");
   ExpectInputError({"cmd", "--markers", "a", "stray"}, "unexpected argument 'stray'");
   ExpectInputError({"cmd", "--markers", "a", "--quiet=1"}, "--quiet takes no value");
@@ -80,7 +83,8 @@ TEST(RunSubcommands, ExitCodesFollowTheConvention) {
       {"ok", "", [](int, char**) { return 0; }},
       {"bad", "", [](int, char**) -> int { throw InputError("bad value"); }},
       {"boom", "", [](int, char**) -> int { throw std::runtime_error("solver diverged"); }}};
-  for (auto [name, code] : std::vector<std::pair<std::string, int>>{{"ok", 0}, {"bad", 2}, {"boom", 1}, {"nope", 2}}) {
+  for (auto [name, code] :
+       std::vector<std::pair<std::string, int>>{{"ok", 0}, {"bad", 2}, {"boom", 1}, {"nope", 2}}) {
     Argv a({"prog", name});
     EXPECT_EQ(RunSubcommands("prog", "", cmds, a.argc(), a.argv()), code) << name;
   }

@@ -22,10 +22,12 @@ namespace nsim::testing {
 class ChildProcess {
  public:
   /// Starts `args` (args[0] is the executable path) with stdout and stderr to `log_path`.
-  ChildProcess(std::vector<std::string> args, std::string log_path) : log_path_(std::move(log_path)) {
+  ChildProcess(std::vector<std::string> args, std::string log_path)
+      : log_path_(std::move(log_path)) {
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 1, log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
     posix_spawn_file_actions_adddup2(&actions, 1, 2);
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());

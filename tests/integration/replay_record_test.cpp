@@ -18,7 +18,8 @@ const std::string kBin = NSIM_BIN_DIR;
 const std::string kDdsConfig = NSIM_SOURCE_DIR "/configs/dds/local.xml";
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
   fs::create_directories(dir);
   return dir;
 }
@@ -34,7 +35,8 @@ MarkerStream BreathingLikeStream(int markers, int frames, double rate_hz, uint64
     f.stamp.sim_time = k / rate_hz;
     const double c = std::cos(M_PI * f.stamp.sim_time / 4.0);
     for (int m = 0; m < markers; ++m)
-      f.p_WM.emplace_back(0.02 * m + noise(rng), 0.003 * c * c + noise(rng), 0.012 * c * c * c * c + noise(rng));
+      f.p_WM.emplace_back(0.02 * m + noise(rng), 0.003 * c * c + noise(rng),
+                          0.012 * c * c * c * c + noise(rng));
     s.frames.push_back(f);
   }
   return s;
@@ -77,7 +79,8 @@ TEST(ReplayRecord, RecordingEqualsTheStreamValueForValueAndInOrder) {
   for (size_t k = 0; k < got.frames.size(); ++k) {
     ASSERT_EQ(got.frames[k].stamp.sim_time, stream.frames[k].stamp.sim_time) << "frame " << k;
     for (int m = 0; m < stream.num_markers; ++m)
-      ASSERT_EQ(got.frames[k].p_WM[m], stream.frames[k].p_WM[m]) << "frame " << k << " marker " << m;
+      ASSERT_EQ(got.frames[k].p_WM[m], stream.frames[k].p_WM[m])
+          << "frame " << k << " marker " << m;
   }
   fs::remove_all(dir);
 }
@@ -90,10 +93,10 @@ TEST(ReplayRecord, KilledPublisherIsReportedWithinTheLivelinessLease) {
   // detection bound: the lease plus the reader's polling period and process scheduling
   const double allowed_s = lease_s + 0.7;
 
-  ChildProcess record(Cat({kBin + "/inverse_sim", "record", "--out", (dir / "out.csv").string(),
-                           "--timeout", "60"},
-                          Common(32, partition)),
-                      (dir / "record.log").string());
+  ChildProcess record(
+      Cat({kBin + "/inverse_sim", "record", "--out", (dir / "out.csv").string(), "--timeout", "60"},
+          Common(32, partition)),
+      (dir / "record.log").string());
   ChildProcess replay(Cat({kBin + "/direct_sim", "replay", "--markers", (dir / "in.csv").string(),
                            "--lease", std::to_string(lease_s)},
                           Common(32, partition)),
@@ -103,12 +106,14 @@ TEST(ReplayRecord, KilledPublisherIsReportedWithinTheLivelinessLease) {
   while (record.Output().find("record: ") == std::string::npos &&
          std::chrono::steady_clock::now() - start < std::chrono::seconds(30))
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  ASSERT_NE(record.Output().find("record: "), std::string::npos) << "no frames: " << replay.Output();
+  ASSERT_NE(record.Output().find("record: "), std::string::npos)
+      << "no frames: " << replay.Output();
 
   replay.Kill(SIGKILL);
   const auto killed_at = std::chrono::steady_clock::now();
   const int code = record.Wait(30);
-  const double detect_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed_at).count();
+  const double detect_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - killed_at).count();
   EXPECT_EQ(code, 1) << record.Output();
   EXPECT_NE(record.Output().find("publisher_lost"), std::string::npos) << record.Output();
   EXPECT_LT(detect_s, allowed_s) << "lease " << lease_s << " s";

@@ -30,7 +30,8 @@ MarkerStream RandomStream(int markers, int frames, uint64_t seed) {
 
 TEST(MarkerCsv, RoundTripIsExact) {
   const MarkerStream in = RandomStream(5, 200, 7);
-  const std::string path = (std::filesystem::temp_directory_path() / "nsim_marker_roundtrip.csv").string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "nsim_marker_roundtrip.csv").string();
   WriteMarkerCsv(path, in);
   const MarkerStream out = ReadMarkerCsv(path);
   ASSERT_EQ(out.num_markers, 5);
@@ -68,20 +69,26 @@ void ExpectError(const std::string& text, const std::string& fragment) {
 TEST(MarkerCsv, EveryMalformedCaseNamesFileLineAndColumn) {
   ExpectError("", "bad.csv:1: empty file");
   ExpectError("t,m0_x,m0_y\n0,1,2\n", "bad.csv:1: header has 3 columns");
-  ExpectError("time,m0_x,m0_y,m0_z\n0,1,2,3\n", "bad.csv:1:1 (t): header: expected 't', got 'time'");
-  ExpectError("t,m0_x,m0_z,m0_y\n0,1,2,3\n", "bad.csv:1:3 (m0_y): header: expected 'm0_y', got 'm0_z'");
+  ExpectError("time,m0_x,m0_y,m0_z\n0,1,2,3\n",
+              "bad.csv:1:1 (t): header: expected 't', got 'time'");
+  ExpectError("t,m0_x,m0_z,m0_y\n0,1,2,3\n",
+              "bad.csv:1:3 (m0_y): header: expected 'm0_y', got 'm0_z'");
   ExpectError("t,m0_x,m0_y,m0_z\n", "no data rows");
   ExpectError("t,m0_x,m0_y,m0_z\n0,1,2,3\n1,1,2\n", "bad.csv:3: expected 4 columns, got 3");
   ExpectError("t,m0_x,m0_y,m0_z\n0,1,2,3\n1,1,2,3,4\n", "bad.csv:3: expected 4 columns, got 5");
   ExpectError("t,m0_x,m0_y,m0_z\n0,1,abc,3\n", "bad.csv:2:3 (m0_y): expected a number, got 'abc'");
   ExpectError("t,m0_x,m0_y,m0_z\n0,1,,3\n", "bad.csv:2:3 (m0_y): expected a number, got ''");
-  ExpectError("t,m0_x,m0_y,m0_z\n0,1,2,nan\n", "bad.csv:2:4 (m0_z): expected a finite value, got 'nan'");
+  ExpectError("t,m0_x,m0_y,m0_z\n0,1,2,nan\n",
+              "bad.csv:2:4 (m0_z): expected a finite value, got 'nan'");
   ExpectError("t,m0_x,m0_y,m0_z\n0,inf,2,3\n", "bad.csv:2:2 (m0_x): expected a finite value");
   ExpectError("t,m0_x,m0_y,m0_z\n0,1e999,2,3\n", "bad.csv:2:2 (m0_x): expected a finite value");
-  ExpectError("t,m0_x,m0_y,m0_z\n0,1,2,3\n0,1,2,3\n", "bad.csv:3:1 (t): time must increase strictly");
-  ExpectError("t,m0_x,m0_y,m0_z\n1,1,2,3\n0.5,1,2,3\n", "bad.csv:3:1 (t): time must increase strictly");
+  ExpectError("t,m0_x,m0_y,m0_z\n0,1,2,3\n0,1,2,3\n",
+              "bad.csv:3:1 (t): time must increase strictly");
+  ExpectError("t,m0_x,m0_y,m0_z\n1,1,2,3\n0.5,1,2,3\n",
+              "bad.csv:3:1 (t): time must increase strictly");
   ExpectError("t,m0_x,m0_y,m0_z\n0,1,2,3\n\n1,1,2,3\n", "bad.csv:3: blank line inside the data");
-  ExpectError("t,m0_x,m0_y,m0_z,m1_x,m1_y,m1_z\n0,1,2,3,4,5,6x\n", "bad.csv:2:7 (m1_z): expected a number, got '6x'");
+  ExpectError("t,m0_x,m0_y,m0_z,m1_x,m1_y,m1_z\n0,1,2,3,4,5,6x\n",
+              "bad.csv:2:7 (m1_z): expected a number, got '6x'");
 }
 
 TEST(MarkerCsv, MissingFileIsAnInputError) {

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The run command: installs missing packages, builds, then runs the main job and writes a
+# results folder. Until the closed loop exists, the main job is the replay demo: the bundled
+# breathing marker stream is replayed by direct_sim and recorded by inverse_sim over DDS on
+# this machine, and the recording is compared with the stream.
+#
+#   scripts/run.sh [MARKERS.csv]      (default: configs/markers/breathing_demo.csv)
+#   NSIM_RATE_SCALE=1 scripts/run.sh  (replay at the recorded pace; default 4x faster)
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+"$root/scripts/setup.sh"
+"$root/scripts/build.sh" >/dev/null
+bin="${NSIM_BUILD_DIR:-$root/build}/bin"
+
+markers="${1:-$root/configs/markers/breathing_demo.csv}"
+rate_scale="${NSIM_RATE_SCALE:-4}"
+out="${NSIM_RESULTS_DIR:-$root/results/replay_$(date +%Y%m%d_%H%M%S)}"
+mkdir -p "$out"
+dds=(--dds-config "$root/configs/dds/local.xml" --domain "${NSIM_DOMAIN:-0}" --partition "run$$")
+
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
+trap cleanup EXIT INT TERM
+
+echo "run: replaying $markers at ${rate_scale}x into inverse_sim record; results in $out"
+"$bin/inverse_sim" record --out "$out/recorded.csv" --summary "$out/record_summary.json" \
+  --timeout 3600 "${dds[@]}" > "$out/record.log" 2>&1 &
+pids+=($!); rec=$!
+"$bin/direct_sim" replay --markers "$markers" --rate-scale "$rate_scale" "${dds[@]}" \
+  2>&1 | tee "$out/replay.log"
+rec_code=0; wait "$rec" || rec_code=$?
+echo
+tail -n 3 "$out/record.log"
+if [ "$rec_code" -ne 0 ]; then echo "run: the recorder failed (exit $rec_code), see $out/record.log"; exit 1; fi
+if cmp -s <(tail -n +2 "$markers" | awk -F, '{for(i=1;i<=NF;i++) printf "%.17g%s", $i, (i<NF?",":"\n")}') \
+          <(tail -n +2 "$out/recorded.csv" | awk -F, '{for(i=1;i<=NF;i++) printf "%.17g%s", $i, (i<NF?",":"\n")}'); then
+  echo "run: the recording equals the replayed stream, value for value"
+else
+  echo "run: the recording differs from the replayed stream (see $out/record_summary.json)"
+  exit 1
+fi
+echo "run: results in $out"
