@@ -12,6 +12,25 @@
 #include "messages/transport_options.h"
 
 namespace nsim {
+namespace {
+
+constexpr double kSettleTimeout_s = 1.0;
+
+/// Waits until a process other than direct_sim publishes a running status; false on timeout.
+bool WaitForPeerRunning(transport::Reader<SimStatus>& reader, double timeout_s) {
+  const double end = MonotonicSeconds() + timeout_s;
+  std::vector<SimStatus> statuses;
+  while (MonotonicSeconds() < end) {
+    reader.Wait(0.02);
+    statuses.clear();
+    reader.Take(statuses);
+    for (const SimStatus& s : statuses)
+      if (s.sender != "direct_sim" && s.state == RunState::kRunning) return true;
+  }
+  return false;
+}
+
+}  // namespace
 
 int RunReplay(int argc, char** argv) {
   CommandLine cli("direct_sim replay --markers IN.csv [options]",
@@ -44,6 +63,7 @@ int RunReplay(int argc, char** argv) {
   transport::Participant participant(tc);
   transport::Writer<MarkerFrame> markers(participant, transport::Qos::kStateStream);
   transport::Writer<SimStatus> status_writer(participant, transport::Qos::kStatus);
+  transport::Reader<SimStatus> status_reader(participant, transport::Qos::kStatus);
   SimStatus status;
   status.sender = "direct_sim";
   status.message = "replay";
@@ -53,11 +73,19 @@ int RunReplay(int argc, char** argv) {
   };
   publish_status();
 
-  if (wait_readers > 0 && !markers.WaitForReaders(static_cast<int>(wait_readers), wait_timeout)) {
-    std::cerr
-        << "direct_sim replay: no MarkerFrame reader after " << wait_timeout
-        << " s (is inverse_sim running with the same --domain, --partition and DDS config?)\n";
-    return 1;
+  if (wait_readers > 0) {
+    if (!markers.WaitForReaders(static_cast<int>(wait_readers), wait_timeout)) {
+      std::cerr
+          << "direct_sim replay: no MarkerFrame reader after " << wait_timeout
+          << " s (is inverse_sim running with the same --domain, --partition and DDS config?)\n";
+      return 1;
+    }
+    // the writer knowing the reader is not enough: the reader must know the writer too, or the
+    // first frames are dropped; inverse_sim says so with a "running" status, other readers get
+    // a fixed settle time
+    if (!WaitForPeerRunning(status_reader, kSettleTimeout_s) && !quiet)
+      std::printf("replay: no status from the reader's process; streaming after %.1f s\n",
+                  kSettleTimeout_s);
   }
   const auto& frames = stream.frames;
   const double t0 = frames.front().stamp.sim_time;

@@ -72,6 +72,12 @@ int RunRecord(int argc, char** argv) {
   transport::Participant participant(tc);
   transport::Reader<MarkerFrame> reader(participant, transport::Qos::kRecording);
   transport::Reader<SimStatus> status_reader(participant, transport::Qos::kStatus);
+  transport::Writer<SimStatus> status_writer(participant, transport::Qos::kStatus);
+  SimStatus own_status;
+  own_status.sender = "inverse_sim";
+  own_status.message = "recording";
+  status_writer.Write(own_status);
+  bool announced = false;
 
   std::unique_ptr<MarkerCsvWriter> csv;
   SequenceTracker seqs;
@@ -127,6 +133,13 @@ int RunRecord(int argc, char** argv) {
     }
     const transport::ReaderHealth health = reader.health();
     if (health.writers_alive > 0) seen_alive = true;
+    if (!announced && health.writers_matched > 0) {
+      // tell the publisher that this reader knows it, so its first frame is not lost
+      own_status.state = RunState::kRunning;
+      own_status.stamp.seq++;
+      status_writer.Write(own_status);
+      announced = true;
+    }
     if (!quiet && now >= next_progress) {
       std::printf("record: %lu frames, %d publisher(s) alive\n",
                   static_cast<unsigned long>(written), health.writers_alive);
