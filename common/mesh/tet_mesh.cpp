@@ -23,7 +23,8 @@ void OrientTetsPositively(TetMesh& mesh) {
 std::vector<Eigen::Vector3i> ComputeBoundarySurface(const std::vector<Eigen::Vector4i>& tets) {
   // faces opposite each local vertex; a face shared by two tets is interior
   static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  std::map<std::array<int, 3>, std::pair<int, Eigen::Vector3i>> faces;  // sorted key -> (count, face)
+  std::map<std::array<int, 3>, std::pair<int, Eigen::Vector3i>>
+      faces;  // sorted key -> (count, face)
   for (const auto& t : tets) {
     for (const auto& f : kFace) {
       Eigen::Vector3i face(t[f[0]], t[f[1]], t[f[2]]);
@@ -52,9 +53,11 @@ TetMesh MakeBoxTetMesh(const Eigen::Vector3i& nodes, const Eigen::Vector3d& size
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i)
         mesh.X.col(id(i, j, k)) =
-            origin + Eigen::Vector3d(size[0] * i / (nx - 1), size[1] * j / (ny - 1), size[2] * k / (nz - 1));
+            origin +
+            Eigen::Vector3d(size[0] * i / (nx - 1), size[1] * j / (ny - 1), size[2] * k / (nz - 1));
   // Kuhn subdivision: 6 tets around the diagonal from corner 0 to corner 7 of each cube
-  static constexpr int kPaths[6][3] = {{1, 3, 7}, {1, 5, 7}, {2, 3, 7}, {2, 6, 7}, {4, 5, 7}, {4, 6, 7}};
+  static constexpr int kPaths[6][3] = {{1, 3, 7}, {1, 5, 7}, {2, 3, 7},
+                                       {2, 6, 7}, {4, 5, 7}, {4, 6, 7}};
   for (int k = 0; k + 1 < nz; ++k)
     for (int j = 0; j + 1 < ny; ++j)
       for (int i = 0; i + 1 < nx; ++i) {

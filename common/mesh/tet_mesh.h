@@ -10,9 +10,10 @@ namespace nsim {
 /// A linear tetrahedral mesh at rest. Immutable once built; positions of a deformed state live
 /// in the state of whatever simulates it.
 struct TetMesh {
-  Eigen::Matrix3Xd X;                    ///< rest node positions (m), 3 x #nodes
-  std::vector<Eigen::Vector4i> tets;     ///< node indices; positively oriented (volume > 0)
-  std::vector<Eigen::Vector3i> surface;  ///< boundary triangles, counter-clockwise seen from outside
+  Eigen::Matrix3Xd X;                 ///< rest node positions (m), 3 x #nodes
+  std::vector<Eigen::Vector4i> tets;  ///< node indices; positively oriented (volume > 0)
+  std::vector<Eigen::Vector3i>
+      surface;  ///< boundary triangles, counter-clockwise seen from outside
 
   int num_nodes() const { return static_cast<int>(X.cols()); }
   int num_tets() const { return static_cast<int>(tets.size()); }

@@ -12,7 +12,8 @@ TEST(TetMesh, BoxVolumesArePositiveAndSumToTheBox) {
   EXPECT_EQ(mesh.num_tets(), 6 * 3 * 2 * 4);
   double total = 0;
   for (const auto& t : mesh.tets) {
-    const double v = SignedTetVolume(mesh.X.col(t[0]), mesh.X.col(t[1]), mesh.X.col(t[2]), mesh.X.col(t[3]));
+    const double v =
+        SignedTetVolume(mesh.X.col(t[0]), mesh.X.col(t[1]), mesh.X.col(t[2]), mesh.X.col(t[3]));
     EXPECT_GT(v, 0);
     total += v;
   }

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Regenerates every mesh in configs/meshes/ from its committed gmsh script and reports the node
+# and tetrahedron counts. Headless; reproducible with the same gmsh version (4.8.4, Debian).
+# Usage: scripts/make_meshes.sh
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+dir="${root}/configs/meshes"
+
+if ! command -v gmsh >/dev/null 2>&1; then
+  echo "make_meshes.sh: gmsh not found; install it (apt-get install gmsh)" >&2
+  exit 2
+fi
+version="$(gmsh --version 2>&1 | tail -n 1)"
+if [[ "${version}" != "4.8.4" ]]; then
+  echo "make_meshes.sh: warning: gmsh ${version}, the committed meshes were made with 4.8.4;" \
+       "node counts may differ" >&2
+fi
+
+# counts "<nodes> <tets>" of an ASCII .msh file (format 2.2 or 4.1)
+count() {
+  awk '
+    /^\$MeshFormat/ { getline; version = $1 }
+    /^\$Nodes/ { getline; nodes = (version + 0 >= 4) ? $2 : $1 }
+    /^\$Elements/ { in_elements = 1; getline; block = 0; next }
+    /^\$EndElements/ { in_elements = 0 }
+    in_elements && version + 0 < 4 && $2 == 4 { tets++ }
+    in_elements && version + 0 >= 4 {
+      if (block == 0) { type = $3; block = $4; if (type == 4) tets += $4 } else { block-- }
+    }
+    END { printf "%d %d\n", nodes, tets }' "$1"
+}
+
+# mesh <geo> <output> <format> [gmsh options...]
+mesh() {
+  local geo="$1" out="$2" format="$3"
+  shift 3
+  gmsh -3 "${dir}/${geo}" -o "${dir}/${out}" -format "${format}" "$@" >"${dir}/.${out}.log" 2>&1 || {
+    echo "make_meshes.sh: gmsh failed on ${geo}; log:" >&2
+    cat "${dir}/.${out}.log" >&2
+    exit 1
+  }
+  if grep -qE '^(Warning|Error)' "${dir}/.${out}.log"; then
+    grep -E '^(Warning|Error)' "${dir}/.${out}.log" >&2
+  fi
+  rm -f "${dir}/.${out}.log"
+  read -r nodes tets < <(count "${dir}/${out}")
+  printf '%-20s %6d nodes %7d tets\n' "${out}" "${nodes}" "${tets}"
+}
+
+# the liver at three resolutions (lc = maximum element size in mm)
+mesh liver.geo liver_700.msh msh41 -setnumber lc 14.5
+mesh liver.geo liver_2660.msh msh41 -setnumber lc 8.53
+mesh liver.geo liver_10000.msh msh41 -setnumber lc 5.18
+# the skin patch, written in the older format 2.2 (both formats are read)
+mesh skin_patch.geo skin_patch.msh msh22
