@@ -61,7 +61,7 @@ int RunReplay(int argc, char** argv) {
   InstallInterruptHandler();
 
   transport::Participant participant(tc);
-  transport::Writer<MarkerFrame> markers(participant, transport::Qos::kStateStream);
+  transport::Writer<MarkerFrame> markers(participant, transport::Qos::kLossless);
   transport::Writer<SimStatus> status_writer(participant, transport::Qos::kStatus);
   transport::Reader<SimStatus> status_reader(participant, transport::Qos::kStatus);
   SimStatus status;

@@ -70,7 +70,7 @@ int RunRecord(int argc, char** argv) {
   InstallInterruptHandler();
 
   transport::Participant participant(tc);
-  transport::Reader<MarkerFrame> reader(participant, transport::Qos::kRecording);
+  transport::Reader<MarkerFrame> reader(participant, transport::Qos::kLossless);
   transport::Reader<SimStatus> status_reader(participant, transport::Qos::kStatus);
   transport::Writer<SimStatus> status_writer(participant, transport::Qos::kStatus);
   SimStatus own_status;

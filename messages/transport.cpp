@@ -25,7 +25,7 @@ int32_t Checked(int32_t rc, const char* what) {
 dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
-  const int depth = (profile == Qos::kRecording && !writer) ? c.recording_depth : 1;
+  const int depth = profile == Qos::kLossless ? c.lossless_depth : 1;
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
   dds_qset_durability(
       q, profile == Qos::kStatus ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
@@ -50,8 +50,8 @@ void TransportConfig::Validate() const {
   if (!(liveliness_lease_s > 0))
     throw InputError(Str("dds.liveliness_lease must be > 0 (s), got ", liveliness_lease_s));
   if (!(deadline_s >= 0)) throw InputError(Str("dds.deadline must be >= 0 (s), got ", deadline_s));
-  if (recording_depth < 1)
-    throw InputError(Str("dds.recording_depth must be >= 1, got ", recording_depth));
+  if (lossless_depth < 1)
+    throw InputError(Str("dds.lossless_depth must be >= 1, got ", lossless_depth));
 }
 
 Participant::Participant(const TransportConfig& config) : config_(config) {

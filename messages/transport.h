@@ -21,7 +21,7 @@ struct TransportConfig {
   double liveliness_lease_s = 0.5;  ///< writers assert liveliness within this lease (s); a reader
                                     ///< reports a writer dead when it expires
   double deadline_s = 2.0;          ///< max period between samples of a stream (s); 0 = no deadline
-  int recording_depth = 4096;       ///< reader history depth of the kRecording profile (samples)
+  int lossless_depth = 4096;        ///< history depth of the kLossless profile (samples)
 
   /// Throws InputError naming the field when a value is out of range or the file is missing.
   void Validate() const;
@@ -32,8 +32,10 @@ enum class Qos {
   kStateStream,  ///< MarkerFrame, RobotState, EntryPoint: reliable, keep-last 1, volatile
   kTarget,       ///< RobotTarget: reliable, keep-last 1, volatile
   kStatus,       ///< SimStatus: reliable, keep-last 1, transient-local (late joiners get the last)
-  kRecording,    ///< reader side of a state stream that must keep every sample: reliable,
-                 ///< keep-last recording_depth (compatible with kStateStream writers)
+  kLossless,     ///< a stream where every sample matters (replay, recording): reliable,
+                 ///< keep-last lossless_depth on both sides, so a sample lost on the wire or
+                 ///< written before the reader synchronized can still be resent; a kLossless
+                 ///< reader also matches kStateStream writers (history is not negotiated)
 };
 
 /// A DDS participant with one publisher and one subscriber in the configured partition.

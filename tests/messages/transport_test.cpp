@@ -47,7 +47,7 @@ TEST(Transport, BadConfigIsAnInputError) {
 
 TEST(Transport, FramesArriveInOrderAndWallTimeIsStamped) {
   Participant p(LoopbackConfig());
-  Reader<MarkerFrame> reader(p, Qos::kRecording);
+  Reader<MarkerFrame> reader(p, Qos::kLossless);
   Writer<MarkerFrame> writer(p, Qos::kStateStream);
   ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
   const int64_t before = WallTimeNs();
@@ -87,7 +87,7 @@ TEST(Transport, LateJoinerGetsTheLastStatus) {
 
 TEST(Transport, InvalidSamplesAreDroppedAndCounted) {
   Participant p(LoopbackConfig());
-  Reader<MarkerFrame> reader(p, Qos::kRecording);
+  Reader<MarkerFrame> reader(p, Qos::kLossless);
   Writer<MarkerFrame> writer(p, Qos::kStateStream);
   ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
   MarkerFrame f;
