@@ -1,10 +1,12 @@
 // direct_sim: the patient and the robot (the ground truth of the closed loop).
 #include "common/core/cli.h"
+#include "direct_sim/breathe_command.h"
 #include "direct_sim/replay.h"
 
 int main(int argc, char** argv) {
   return nsim::RunSubcommands(
       "direct_sim", "The direct simulation: the patient, the robot and the needle.",
-      {{"replay", "publish a recorded marker stream (--markers IN.csv)", nsim::RunReplay}}, argc,
-      argv);
+      {{"replay", "publish a recorded marker stream (--markers IN.csv)", nsim::RunReplay},
+       {"breathe", "write a synthetic breathing marker stream (--out OUT.csv)", nsim::RunBreathe}},
+      argc, argv);
 }

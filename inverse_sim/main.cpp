@@ -1,10 +1,13 @@
 // inverse_sim: the controller (registration, prediction, Jacobian, control law) and its tools.
 #include "common/core/cli.h"
+#include "inverse_sim/predict_eval.h"
 #include "inverse_sim/record.h"
 
 int main(int argc, char** argv) {
   return nsim::RunSubcommands(
       "inverse_sim", "The inverse simulation: the controller and its tools.",
-      {{"record", "record received marker frames to CSV (--out OUT.csv)", nsim::RunRecord}}, argc,
-      argv);
+      {{"record", "record received marker frames to CSV (--out OUT.csv)", nsim::RunRecord},
+       {"predict-eval", "offline evaluation of marker prediction (--markers IN.csv)",
+        nsim::RunPredictEval}},
+      argc, argv);
 }
