@@ -2,7 +2,8 @@
 # The run command: installs missing packages, builds, then runs the main job and writes a
 # results folder. Until the closed loop exists, the main job is the replay demo: the bundled
 # breathing marker stream is replayed by direct_sim and recorded by inverse_sim over DDS on
-# this machine, and the recording is compared with the stream.
+# this machine, the recording is compared with the stream, and the marker prediction filters
+# are evaluated on the recording.
 #
 #   scripts/run.sh [MARKERS.csv]      (default: configs/markers/breathing_demo.csv)
 #   NSIM_RATE_SCALE=1 scripts/run.sh  (replay at the recorded pace; default 4x faster)
@@ -39,4 +40,9 @@ else
   echo "run: the recording differs from the replayed stream (see $out/record_summary.json)"
   exit 1
 fi
+echo
+echo "run: marker prediction on the recording (inverse_sim predict-eval, order-2 linear filter)"
+"$bin/inverse_sim" predict-eval --markers "$out/recorded.csv" --horizon 0.1,0.2,0.4 --order 2 \
+  --optimize-window --snr-db 60,40,20 --seed 1 --out "$out/prediction" > "$out/prediction.log"
+sed -n '/mean over markers/,/^per marker/p' "$out/prediction.log" | sed '$d'
 echo "run: results in $out"
