@@ -1,0 +1,74 @@
+#pragma once
+// Constraint-space compliance W = sum_b H_b C_b H_b^T (m/N), C_b = h^2 A_b^-1 (thesis eq. 3.2;
+// Duriez 2009), built from the sparse structure of H: for every body point p the body solves
+// only the 3 columns Y_p = C_b N_p^T (3 n_b x 3, N_p the 3 x 3 n_b barycentric selection), and
+//     W_ij = sum_{t in i, s in j, same body} d_t^T (N_{p_t} Y_{p_s}) d_s.
+// Y_p does not depend on the row directions, so rows that rotate (a needle that turns, the
+// perturbations of the inverse simulation) reuse it; keyed points reuse it across steps while
+// the body's compliance_version() is unchanged (DESIGN.md "Speed").
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "common/constraints/constraint_set.h"
+
+namespace nsim {
+
+/// Counters of the last Assemble.
+struct ComplianceStats {
+  int num_body_points = 0;     ///< distinct body points referenced by rows
+  int num_reused_points = 0;   ///< of which served from the cache
+  int num_solved_columns = 0;  ///< right-hand sides handed to ApplyCompliance (3 per new point)
+};
+
+/// Builds W and the corrections, and caches the compliance columns of keyed points. Holds all
+/// scratch space; reuse one object across steps.
+class ComplianceAssembler {
+ public:
+  /// Computes the columns Y_p of every body point used by a row of `set` (reusing cached ones)
+  /// and W (num_rows x num_rows, m/N). Entries of keyed points not used for
+  /// `kMaxIdleAssembles` consecutive calls are evicted.
+  void Assemble(const ConstraintSet& set, Eigen::MatrixXd& W);
+
+  /// Position corrections dx_b = C_b H_b^T lambda (m), 3 x n_b per body of `set`, for the
+  /// multipliers lambda (N) of the rows, using the columns of the last Assemble (same set).
+  void CalcCorrections(const ConstraintSet& set, const Eigen::VectorXd& lambda,
+                       std::vector<Eigen::Matrix3Xd>& dx) const;
+
+  /// The 3 n_b x 3 compliance columns Y_p of body point p from the last Assemble.
+  const Eigen::Matrix<double, Eigen::Dynamic, 3>& point_columns(int p) const {
+    return *point_columns_[p];
+  }
+
+  const ComplianceStats& stats() const { return stats_; }
+
+  /// Forgets every cached column.
+  void ClearCache() { caches_.clear(); }
+
+  static constexpr int kMaxIdleAssembles = 8;
+
+ private:
+  using Columns = Eigen::Matrix<double, Eigen::Dynamic, 3>;
+  struct Entry {
+    std::vector<int> nodes;
+    std::vector<double> weights;
+    Columns Y;
+    int idle = 0;  // assembles since last use
+  };
+  struct BodyCache {
+    std::uint64_t version = 0;
+    std::unordered_map<std::uint64_t, Entry> entries;
+  };
+
+  std::unordered_map<std::uint64_t, BodyCache> caches_;  // by body uid
+  std::vector<const Columns*> point_columns_;            // per point of the set
+  std::vector<Columns> unkeyed_;                         // storage for points without a key
+  Eigen::MatrixXd point_block_;                          // 3P x 3P: N_p Y_q
+  std::vector<int> pending_;                             // points to solve for one body
+  Eigen::MatrixXd solved_;                               // 3n x 3k output of ApplyCompliance
+  ComplianceStats stats_;
+};
+
+}  // namespace nsim

@@ -1,0 +1,108 @@
+#include "common/fem/cholmod_factor.h"
+
+#include <cholmod.h>
+
+#include "common/core/error.h"
+
+namespace nsim {
+
+struct CholmodFactor::Impl {
+  cholmod_common common;
+  cholmod_factor* factor = nullptr;
+  cholmod_dense* x = nullptr;  // solution workspace of cholmod_solve2
+  cholmod_dense* y = nullptr;
+  cholmod_dense* e = nullptr;
+  int n = 0;
+
+  Impl() {
+    cholmod_start(&common);
+    common.supernodal = CHOLMOD_SUPERNODAL;
+    common.final_asis = 1;  // keep the supernodal LL' form
+    common.print = 0;
+    common.error_handler = nullptr;
+  }
+  ~Impl() {
+    if (x) cholmod_free_dense(&x, &common);
+    if (y) cholmod_free_dense(&y, &common);
+    if (e) cholmod_free_dense(&e, &common);
+    if (factor) cholmod_free_factor(&factor, &common);
+    cholmod_finish(&common);
+  }
+};
+
+namespace {
+
+// view of an Eigen compressed matrix as a symmetric CHOLMOD matrix (upper triangle read), no copy
+cholmod_sparse View(const Eigen::SparseMatrix<double>& A) {
+  NSIM_CHECK(A.isCompressed(), "CHOLMOD needs a compressed matrix");
+  NSIM_CHECK(A.rows() == A.cols(), "CHOLMOD needs a square matrix, got ", A.rows(), " x ",
+             A.cols());
+  cholmod_sparse s{};
+  s.nrow = static_cast<size_t>(A.rows());
+  s.ncol = static_cast<size_t>(A.cols());
+  s.nzmax = static_cast<size_t>(A.nonZeros());
+  s.p = const_cast<int*>(A.outerIndexPtr());
+  s.i = const_cast<int*>(A.innerIndexPtr());
+  s.x = const_cast<double*>(A.valuePtr());
+  s.stype = 1;
+  s.itype = CHOLMOD_INT;
+  s.xtype = CHOLMOD_REAL;
+  s.dtype = CHOLMOD_DOUBLE;
+  s.sorted = 1;
+  s.packed = 1;
+  return s;
+}
+
+}  // namespace
+
+CholmodFactor::CholmodFactor() : impl_(std::make_unique<Impl>()) {}
+CholmodFactor::~CholmodFactor() = default;
+
+void CholmodFactor::Analyze(const Eigen::SparseMatrix<double>& A) {
+  cholmod_sparse view = View(A);
+  if (impl_->factor) cholmod_free_factor(&impl_->factor, &impl_->common);
+  impl_->factor = cholmod_analyze(&view, &impl_->common);
+  NSIM_CHECK(impl_->factor != nullptr, "cholmod_analyze failed, status ", impl_->common.status);
+  impl_->n = static_cast<int>(A.rows());
+  factorized_ = false;
+}
+
+bool CholmodFactor::Factorize(const Eigen::SparseMatrix<double>& A) {
+  NSIM_CHECK(impl_->factor != nullptr, "CholmodFactor::Factorize before Analyze");
+  NSIM_CHECK(A.rows() == impl_->n, "matrix size ", A.rows(), " differs from the analysed ",
+             impl_->n);
+  cholmod_sparse view = View(A);
+  const int ok = cholmod_factorize(&view, impl_->factor, &impl_->common);
+  factorized_ = ok && impl_->common.status == CHOLMOD_OK && impl_->factor->minor == impl_->factor->n;
+  return factorized_;
+}
+
+void CholmodFactor::Solve(const Eigen::Ref<const Eigen::MatrixXd>& B,
+                          Eigen::Ref<Eigen::MatrixXd> X) {
+  NSIM_CHECK(factorized_, "CholmodFactor::Solve without a valid factorization");
+  NSIM_CHECK(B.rows() == impl_->n && X.rows() == B.rows() && X.cols() == B.cols(),
+             "CholmodFactor::Solve size mismatch: n = ", impl_->n, ", B ", B.rows(), " x ",
+             B.cols(), ", X ", X.rows(), " x ", X.cols());
+  cholmod_dense b{};
+  b.nrow = static_cast<size_t>(B.rows());
+  b.ncol = static_cast<size_t>(B.cols());
+  b.nzmax = b.nrow * b.ncol;
+  b.d = static_cast<size_t>(B.outerStride());
+  b.x = const_cast<double*>(B.data());
+  b.xtype = CHOLMOD_REAL;
+  b.dtype = CHOLMOD_DOUBLE;
+  const int ok = cholmod_solve2(CHOLMOD_A, impl_->factor, &b, nullptr, &impl_->x, nullptr,
+                                &impl_->y, &impl_->e, &impl_->common);
+  NSIM_CHECK(ok, "cholmod_solve2 failed, status ", impl_->common.status);
+  const double* out = static_cast<const double*>(impl_->x->x);
+  const Eigen::Index ld = static_cast<Eigen::Index>(impl_->x->d);
+  for (Eigen::Index c = 0; c < X.cols(); ++c)
+    X.col(c) = Eigen::Map<const Eigen::VectorXd>(out + c * ld, X.rows());
+}
+
+int CholmodFactor::rows() const { return impl_->n; }
+bool CholmodFactor::is_analyzed() const { return impl_->factor != nullptr; }
+double CholmodFactor::get_factor_nnz() const { return impl_->common.lnz; }
+double CholmodFactor::get_factor_flops() const { return impl_->common.fl; }
+
+}  // namespace nsim

@@ -1,0 +1,64 @@
+#pragma once
+// Co-rotational linear tetrahedron: rest shape, polar rotation, element force, stiffness and
+// strain energy (Müller & Gross 2004; Irving et al. 2004 for inverted elements).
+//
+// Conventions: the 4 node positions of an element are the columns of a 3 x 4 matrix; the
+// displacement vector of an element stacks node 0 (x, y, z), node 1, ..., node 3 (12 entries).
+// K_e is the positive semi-definite rest stiffness (N/m); the elastic force is
+// f_e = -R_e K_e (R_e^T x_e - X_e) (N), DESIGN.md "Physics".
+
+#include <Eigen/Core>
+
+#include "common/fem/fem_config.h"
+
+namespace nsim {
+
+using Matrix34d = Eigen::Matrix<double, 3, 4>;
+using Matrix12d = Eigen::Matrix<double, 12, 12>;
+
+/// Rest data of one linear tetrahedron, precomputed once. The rest stiffness is stored in
+/// factored form: K_e = V B^T D B is entirely given by (volume, grad_n) and the Lamé parameters,
+/// K_ab = V (lambda g_a g_b^T + mu g_b g_a^T + mu (g_a . g_b) I), g_a = grad_n.col(a). The factored
+/// form holds 13 numbers instead of 144, and R K_e R^T costs a quarter of the dense product.
+struct TetRestShape {
+  Matrix34d grad_n = Matrix34d::Zero();  ///< column a: gradient of shape function N_a at rest (1/m)
+  double volume = 0.0;                   ///< rest volume V (m^3), > 0
+};
+
+/// Rest shape of the tetrahedron with rest node positions X (3 x 4, m). Throws InputError when
+/// the rest volume is not positive (degenerate or negatively oriented element).
+TetRestShape CalcTetRestShape(const Matrix34d& X);
+
+/// Deformation gradient F = sum_a x_a g_a^T (-) of the element with node positions x (3 x 4, m).
+Eigen::Matrix3d CalcDeformationGradient(const TetRestShape& rest, const Matrix34d& x);
+
+/// Rotation R of the polar decomposition F = R S (S symmetric positive definite) when
+/// det F > kPolarSvdThreshold, computed by Higham's scaled Newton iteration to machine precision.
+/// Otherwise (nearly degenerate or inverted element) by SVD F = U Sigma V^T with the sign of the
+/// smallest singular value flipped so that det R = +1 (Irving et al. 2004). Always a rotation.
+/// `used_svd`, when given, reports whether the SVD branch ran.
+Eigen::Matrix3d CalcPolarRotation(const Eigen::Matrix3d& F, bool* used_svd = nullptr);
+
+/// det F at or below which CalcPolarRotation uses the SVD branch (-).
+inline constexpr double kPolarSvdThreshold = 1e-3;
+
+/// Dense 12 x 12 co-rotated stiffness R K_e R^T (N/m); R = I gives the rest stiffness K_e.
+Matrix12d CalcCorotatedStiffness(const TetRestShape& rest, const LameParameters& lame,
+                                 const Eigen::Matrix3d& R);
+
+/// Matrix-free product R K_e R^T p for nodal vectors p (3 x 4); returns 3 x 4 (N when p in m).
+Matrix34d ApplyCorotatedStiffness(const TetRestShape& rest, const LameParameters& lame,
+                                  const Eigen::Matrix3d& R, const Matrix34d& p);
+
+/// Elastic force f = -R K_e (R^T x - X) on the 4 nodes (3 x 4, N) at positions x (3 x 4, m),
+/// given the deformation gradient F of x and the element rotation R. R = I is the small-strain
+/// (linear) element, R = CalcPolarRotation(F) the co-rotational one.
+Matrix34d CalcCorotatedForce(const TetRestShape& rest, const LameParameters& lame,
+                             const Eigen::Matrix3d& R, const Eigen::Matrix3d& F);
+
+/// Strain energy (J) 0.5 u^T K_e u with u = R^T x - X, i.e. V (mu eps:eps + lambda/2 tr(eps)^2),
+/// eps = sym(R^T F) - I. With the polar R its gradient is exactly -CalcCorotatedForce.
+double CalcCorotatedEnergy(const TetRestShape& rest, const LameParameters& lame,
+                           const Eigen::Matrix3d& R, const Eigen::Matrix3d& F);
+
+}  // namespace nsim

@@ -1,0 +1,525 @@
+#include "common/fem/fem_solver.h"
+
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+#include <utility>
+
+#include "common/core/error.h"
+#include "common/fem/cholmod_factor.h"
+
+namespace nsim {
+
+struct FemSolver::Impl {
+  const FemModel& model;
+  const FemConfig& config;
+  const LameParameters lame;
+  const double h;
+  const double mass_scale;  // 1 + h alpha
+  const double stiffness_scale;  // h beta + h^2
+  const int num_free;
+
+  Eigen::VectorXd mass_free;            // lumped mass per reduced DOF (kg), 3 #free
+  Eigen::SparseMatrix<double> matrix;   // A_ff assembled on this thread
+  std::unique_ptr<CholmodFactor> active;  // factor used by solves on this thread
+  std::vector<Eigen::Matrix3d> rotations;     // element rotations of the current step
+  std::vector<Matrix34d> rotated_grad;        // R_e grad_n of the current step (1/m)
+  std::vector<Eigen::Matrix3d> nodal_rotations;  // current, per free node
+  std::vector<Eigen::Matrix3d> reference_rotations;  // nodal rotations the active factor was made at
+  std::vector<Eigen::Matrix3d> warp;  // Q = current * reference^T, per free node
+  bool factor_is_current = false;     // active factor is this step's A (Q = I)
+
+  // scratch, preallocated
+  Eigen::Matrix3Xd full_in, full_out, full_w;  // full_in: Dirichlet columns always zero
+  Eigen::Matrix3Xd full_sum;                   // dv + v in CommitStep
+  Eigen::VectorXd b, dv, r, z, p, ap, tmp;
+  Eigen::MatrixXd multi_in, multi_out, multi_rotated;
+  Eigen::VectorXd zero_correction;  // 3n zeros for CommitStep without a correction
+
+  // background factorization (FemConfig::background_refactor)
+  std::unique_ptr<CholmodFactor> spare;
+  Eigen::SparseMatrix<double> background_matrix;
+  std::vector<Eigen::Matrix3d> background_rotations;
+  std::thread worker;
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool job_pending = false, job_busy = false, job_done = false, job_ok = false, quit = false;
+  std::atomic<int> factorizations{0};
+
+  explicit Impl(const FemModel& m)
+      : model(m),
+        config(m.get_config()),
+        lame(m.get_lame()),
+        h(m.get_config().time_step),
+        mass_scale(1.0 + h * m.get_config().rayleigh_mass),
+        stiffness_scale(h * m.get_config().rayleigh_stiffness + h * h),
+        num_free(m.num_free_nodes()) {
+    const int n = model.num_nodes();
+    const int ndof = 3 * num_free;
+    mass_free.resize(ndof);
+    for (int k = 0; k < num_free; ++k)
+      mass_free.segment<3>(3 * k).setConstant(model.get_lumped_mass()[model.get_free_nodes()[k]]);
+    matrix = model.get_system_pattern();
+    rotations.assign(model.num_tets(), Eigen::Matrix3d::Identity());
+    rotated_grad.resize(model.num_tets());
+    for (int e = 0; e < model.num_tets(); ++e) rotated_grad[e] = model.get_rest_shapes()[e].grad_n;
+    nodal_rotations.assign(num_free, Eigen::Matrix3d::Identity());
+    reference_rotations = nodal_rotations;
+    warp = nodal_rotations;
+    full_in = Eigen::Matrix3Xd::Zero(3, n);
+    full_out = Eigen::Matrix3Xd::Zero(3, n);
+    full_w = Eigen::Matrix3Xd::Zero(3, n);
+    full_sum = Eigen::Matrix3Xd::Zero(3, n);
+    zero_correction = Eigen::VectorXd::Zero(3 * n);
+    for (Eigen::VectorXd* v : {&b, &dv, &r, &z, &p, &ap, &tmp}) *v = Eigen::VectorXd::Zero(ndof);
+
+    active = std::make_unique<CholmodFactor>();
+    active->Analyze(matrix);
+    Assemble(matrix);
+    NSIM_CHECK(active->Factorize(matrix), "rest system matrix is not positive definite");
+    ++factorizations;
+    factor_is_current = true;
+
+    if (config.background_refactor && config.linear_solver == FemLinearSolver::kPcgCachedFactor) {
+      spare = std::make_unique<CholmodFactor>();
+      spare->Analyze(matrix);
+      background_matrix = matrix;
+      background_rotations = nodal_rotations;
+      worker = std::thread([this] { WorkerLoop(); });
+    }
+  }
+
+  ~Impl() {
+    if (worker.joinable()) {
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        quit = true;
+      }
+      wake.notify_all();
+      worker.join();
+    }
+  }
+
+  void WorkerLoop() {
+    std::unique_lock<std::mutex> lock(mutex);
+    for (;;) {
+      wake.wait(lock, [this] { return job_pending || quit; });
+      if (quit) return;
+      job_pending = false;
+      lock.unlock();
+      // background_matrix and spare are owned by the worker while job_busy is set
+      const bool ok = spare->Factorize(background_matrix);
+      ++factorizations;
+      lock.lock();
+      job_ok = ok;
+      job_done = true;
+      wake.notify_all();
+    }
+  }
+
+  // A_ff = (1 + h alpha) M + (h beta + h^2) sum_e R_e K_e R_e^T into `target`'s values
+  void Assemble(Eigen::SparseMatrix<double>& target) const {
+    double* values = target.valuePtr();
+    const int* outer = target.outerIndexPtr();
+    std::fill(values, values + target.nonZeros(), 0.0);
+    const auto& diag = model.get_diagonal_index();
+    for (int d = 0; d < 3 * num_free; ++d) values[diag[d]] = mass_scale * mass_free[d];
+    const auto& tets = model.get_mesh().tets;
+    const auto& offsets = model.get_block_offsets();
+    for (int e = 0; e < model.num_tets(); ++e) {
+      const TetRestShape& rest = model.get_rest_shapes()[e];
+      const Matrix34d& rg = rotated_grad[e];
+      const double scale = stiffness_scale * rest.volume;
+      for (int bn = 0; bn < 4; ++bn) {
+        const int fb = model.get_free_index(tets[e][bn]);
+        if (fb < 0) continue;
+        for (int an = 0; an < 4; ++an) {
+          const int offset = offsets[e][an + 4 * bn];
+          if (offset < 0) continue;
+          Eigen::Matrix3d block = lame.lambda * rg.col(an) * rg.col(bn).transpose() +
+                                  lame.mu * rg.col(bn) * rg.col(an).transpose();
+          block.diagonal().array() += lame.mu * rest.grad_n.col(an).dot(rest.grad_n.col(bn));
+          for (int c = 0; c < 3; ++c) {
+            double* column = values + outer[3 * fb + c] + offset;
+            for (int rr = 0; rr < 3; ++rr) column[rr] += scale * block(rr, c);
+          }
+        }
+      }
+    }
+  }
+
+  // out = A_ff in (reduced vectors), matrix-free with the current rotations
+  void Multiply(const Eigen::VectorXd& in, Eigen::VectorXd& out) {
+    const auto& free_nodes = model.get_free_nodes();
+    for (int k = 0; k < num_free; ++k) full_in.col(free_nodes[k]) = in.segment<3>(3 * k);
+    full_out.setZero();
+    const auto& tets = model.get_mesh().tets;
+    for (int e = 0; e < model.num_tets(); ++e) {
+      const Eigen::Vector4i& t = tets[e];
+      // R K_e R^T p with rotated gradients r = R g: G = sum_b p_b r_b^T,
+      // y_a = V (lambda tr(G) I + mu (G + G^T)) r_a (same as ApplyCorotatedStiffness, fewer flops)
+      const Matrix34d& rg = rotated_grad[e];
+      Eigen::Matrix3d G = full_in.col(t[0]) * rg.col(0).transpose();
+      for (int a = 1; a < 4; ++a) G.noalias() += full_in.col(t[a]) * rg.col(a).transpose();
+      Eigen::Matrix3d sigma = lame.mu * (G + G.transpose());
+      sigma.diagonal().array() += lame.lambda * G.trace();
+      const Matrix34d ye = model.get_rest_shapes()[e].volume * sigma * rg;
+      for (int a = 0; a < 4; ++a) full_out.col(t[a]) += ye.col(a);
+    }
+    for (int k = 0; k < num_free; ++k)
+      out.segment<3>(3 * k) = mass_scale * mass_free.segment<3>(3 * k).cwiseProduct(in.segment<3>(3 * k)) +
+                              stiffness_scale * full_out.col(free_nodes[k]);
+  }
+
+  // out = Q A_ref^-1 Q^T in for one or more reduced columns (in may alias nothing)
+  void ApplyPreconditioner(const Eigen::Ref<const Eigen::MatrixXd>& in, Eigen::MatrixXd& rotated,
+                           Eigen::Ref<Eigen::MatrixXd> out) {
+    for (Eigen::Index c = 0; c < in.cols(); ++c)
+      for (int k = 0; k < num_free; ++k)
+        rotated.col(c).segment<3>(3 * k) = warp[k].transpose() * in.col(c).segment<3>(3 * k);
+    active->Solve(rotated, out);
+    for (Eigen::Index c = 0; c < in.cols(); ++c)
+      for (int k = 0; k < num_free; ++k) {
+        const Eigen::Vector3d v = out.col(c).segment<3>(3 * k);
+        out.col(c).segment<3>(3 * k) = warp[k] * v;
+      }
+  }
+  void ApplyPreconditioner(const Eigen::VectorXd& in, Eigen::VectorXd& out) {
+    for (int k = 0; k < num_free; ++k) tmp.segment<3>(3 * k) = warp[k].transpose() * in.segment<3>(3 * k);
+    active->Solve(tmp, out);
+    for (int k = 0; k < num_free; ++k) {
+      const Eigen::Vector3d v = out.segment<3>(3 * k);
+      out.segment<3>(3 * k) = warp[k] * v;
+    }
+  }
+
+  // preconditioned conjugate gradient on A_ff x = rhs from the initial x; returns iterations,
+  // sets the true relative residual; converged when it is <= tolerance
+  int Pcg(const Eigen::VectorXd& rhs, Eigen::VectorXd& x, double& relative_residual) {
+    const double rhs_norm = rhs.norm();
+    if (!(rhs_norm > 0.0)) {
+      x.setZero();
+      relative_residual = 0.0;
+      return 0;
+    }
+    const double tolerance = config.cg_relative_tolerance;
+    int iterations = 0;
+    Multiply(x, ap);
+    r = rhs - ap;
+    relative_residual = r.norm() / rhs_norm;
+    // restart when the recursive residual drifted from the true one
+    while (relative_residual > tolerance && iterations < config.cg_max_iterations) {
+      ApplyPreconditioner(r, z);
+      p = z;
+      double rz = r.dot(z);
+      while (iterations < config.cg_max_iterations) {
+        ++iterations;
+        Multiply(p, ap);
+        const double step = rz / p.dot(ap);
+        x += step * p;
+        r -= step * ap;
+        if (r.norm() <= tolerance * rhs_norm) break;
+        ApplyPreconditioner(r, z);
+        const double rz_next = r.dot(z);
+        p = z + (rz_next / rz) * p;
+        rz = rz_next;
+      }
+      Multiply(x, ap);
+      r = rhs - ap;
+      relative_residual = r.norm() / rhs_norm;
+    }
+    return iterations;
+  }
+
+  void UpdateNodalRotations() {
+    const auto& offsets = model.get_node_tet_offsets();
+    const auto& node_tets = model.get_node_tets();
+    for (int k = 0; k < num_free; ++k) {
+      Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+      double volume = 0.0;
+      for (int j = offsets[k]; j < offsets[k + 1]; ++j) {
+        const double v = model.get_rest_shapes()[node_tets[j]].volume;
+        sum += v * rotations[node_tets[j]];
+        volume += v;
+      }
+      nodal_rotations[k] = CalcPolarRotation(sum / volume);
+      warp[k] = nodal_rotations[k] * reference_rotations[k].transpose();
+    }
+  }
+
+  // factorize this step's A on this thread; the factor becomes exact for this step
+  void RefactorizeNow() {
+    Assemble(matrix);
+    NSIM_CHECK(active->Factorize(matrix), "system matrix is not positive definite");
+    ++factorizations;
+    reference_rotations = nodal_rotations;
+    for (auto& q : warp) q.setIdentity();
+    factor_is_current = true;
+  }
+
+  // adopt a finished background factorization; returns whether one was adopted
+  bool AdoptBackgroundFactor() {
+    if (!worker.joinable()) return false;
+    std::lock_guard<std::mutex> lock(mutex);
+    if (!job_done) return false;
+    job_done = false;
+    job_busy = false;
+    if (!job_ok) return false;  // a failed factorization is dropped, the old factor stays
+    std::swap(active, spare);
+    std::swap(reference_rotations, background_rotations);
+    return true;
+  }
+
+  void RequestBackgroundFactor() {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (job_busy) return;
+      job_busy = true;
+    }
+    Assemble(background_matrix);
+    background_rotations = nodal_rotations;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      job_pending = true;
+    }
+    wake.notify_all();
+  }
+
+  // gather the free rows of a 3n x k block into multi_in (3 #free x k)
+  void GatherFree(const Eigen::Ref<const Eigen::MatrixXd>& rhs) {
+    multi_in.resize(3 * num_free, rhs.cols());
+    const auto& free_nodes = model.get_free_nodes();
+    for (Eigen::Index c = 0; c < rhs.cols(); ++c)
+      for (int k = 0; k < num_free; ++k)
+        multi_in.col(c).segment<3>(3 * k) = rhs.col(c).segment<3>(3 * free_nodes[k]);
+  }
+
+  // out (3n x k) = A^-1 multi_in, scattered to all nodes with zero Dirichlet rows
+  void SolveGathered(Eigen::MatrixXd& out, FemInverse which) {
+    const Eigen::Index k = multi_in.cols();
+    multi_out.resize(3 * num_free, k);
+    if (which == FemInverse::kCachedFactor || factor_is_current) {
+      multi_rotated.resize(3 * num_free, k);
+      ApplyPreconditioner(multi_in, multi_rotated, multi_out);
+    } else {
+      for (Eigen::Index c = 0; c < k; ++c) {
+        b = multi_in.col(c);
+        dv.setZero();
+        double residual = 0.0;
+        Pcg(b, dv, residual);
+        NSIM_CHECK(residual <= config.cg_relative_tolerance,
+                   "PCG for A^-1 column did not converge: relative residual ", residual);
+        multi_out.col(c) = dv;
+      }
+    }
+    out.setZero(3 * model.num_nodes(), k);
+    const auto& free_nodes = model.get_free_nodes();
+    for (Eigen::Index c = 0; c < k; ++c)
+      for (int j = 0; j < num_free; ++j)
+        out.col(c).segment<3>(3 * free_nodes[j]) = multi_out.col(c).segment<3>(3 * j);
+  }
+};
+
+FemSolver::FemSolver(const FemModel& model) : model_(model), impl_(std::make_unique<Impl>(model)) {}
+
+FemSolver::~FemSolver() = default;
+
+int FemSolver::get_factorization_count() const { return impl_->factorizations.load(); }
+
+FemStepStats FemSolver::Step(FemState& state) {
+  BeginStep(state);
+  CommitStep(state);
+  return stats_;
+}
+
+FemStepStats FemSolver::BeginStep(FemState& state) {
+  Impl& s = *impl_;
+  const FemModel& model = model_;
+  const int n = model.num_nodes();
+  NSIM_CHECK(state.num_nodes() == n && state.v.cols() == n &&
+                 static_cast<int>(state.rotations.size()) == model.num_tets(),
+             "FemState does not belong to this model");
+  const auto& prescribed = model.get_prescribed_nodes();
+  if (state.prescribed_positions.cols() != static_cast<Eigen::Index>(prescribed.size()))
+    throw InputError(Str("FemState::prescribed_positions must have ", prescribed.size(),
+                         " columns, got ", state.prescribed_positions.cols()));
+  if (!state.prescribed_positions.allFinite())
+    throw InputError("FemState::prescribed_positions must be finite");
+  if (state.external_forces.cols() != n || !state.external_forces.allFinite())
+    throw InputError(Str("FemState::external_forces must be finite, 3 x ", n));
+  stats_ = FemStepStats{};
+
+  // velocity the Dirichlet nodes must have at the end of the step
+  s.full_w = state.v;
+  for (int i : model.get_fixed_nodes()) s.full_w.col(i).setZero();
+  for (size_t k = 0; k < prescribed.size(); ++k)
+    s.full_w.col(prescribed[k]) = (state.prescribed_positions.col(k) - state.x.col(prescribed[k])) / s.h;
+
+  // element pass: rotations, elastic forces, K w with w = v (free) / v+ (Dirichlet)
+  state.forces.setZero();
+  s.full_out.setZero();
+  const auto& tets = model.get_mesh().tets;
+  for (int e = 0; e < model.num_tets(); ++e) {
+    const Eigen::Vector4i& t = tets[e];
+    const TetRestShape& rest = model.get_rest_shapes()[e];
+    Matrix34d xe, we;
+    for (int a = 0; a < 4; ++a) {
+      xe.col(a) = state.x.col(t[a]);
+      we.col(a) = s.full_w.col(t[a]);
+    }
+    const Eigen::Matrix3d F = CalcDeformationGradient(rest, xe);
+    bool used_svd = false;
+    const Eigen::Matrix3d R = CalcPolarRotation(F, &used_svd);
+    if (used_svd) ++stats_.inverted_tets;
+    s.rotations[e] = R;
+    s.rotated_grad[e] = R * rest.grad_n;
+    const Matrix34d fe = CalcCorotatedForce(rest, s.lame, R, F);
+    const Matrix34d kwe = ApplyCorotatedStiffness(rest, s.lame, R, we);
+    for (int a = 0; a < 4; ++a) {
+      state.forces.col(t[a]) += fe.col(a);
+      s.full_out.col(t[a]) += kwe.col(a);
+    }
+  }
+  state.rotations = s.rotations;
+  const Eigen::VectorXd& mass = model.get_lumped_mass();
+  const Eigen::Vector3d& g = model.get_config().gravity;
+  for (int i = 0; i < n; ++i) state.forces.col(i) += mass[i] * g + state.external_forces.col(i);
+
+  // reduced right-hand side b_f = [h f - h alpha M v - (h beta + h^2) K w]_f
+  const double alpha = model.get_config().rayleigh_mass;
+  const auto& free_nodes = model.get_free_nodes();
+  for (int k = 0; k < s.num_free; ++k) {
+    const int i = free_nodes[k];
+    s.b.segment<3>(3 * k) = s.h * state.forces.col(i) - s.h * alpha * mass[i] * state.v.col(i) -
+                            s.stiffness_scale * s.full_out.col(i);
+    s.dv.segment<3>(3 * k) = state.dv_free.col(i);  // warm start: previous step's dv
+  }
+
+  // solve A_ff dv_f = b_f
+  s.factor_is_current = false;
+  if (model.get_config().linear_solver == FemLinearSolver::kDirect) {
+    s.RefactorizeNow();
+    stats_.refactorized = true;
+    s.active->Solve(s.b, s.dv);
+    s.Multiply(s.dv, s.ap);
+    const double b_norm = s.b.norm();
+    stats_.relative_residual = b_norm > 0 ? (s.b - s.ap).norm() / b_norm : 0.0;
+  } else {
+    stats_.factor_swapped = s.AdoptBackgroundFactor();
+    s.UpdateNodalRotations();
+    stats_.cg_iterations = s.Pcg(s.b, s.dv, stats_.relative_residual);
+    if (stats_.relative_residual > model.get_config().cg_relative_tolerance) {
+      // never truncated: solve with a fresh factor of this step's A
+      s.RefactorizeNow();
+      stats_.refactorized = true;
+      stats_.fell_back_to_direct = true;
+      s.active->Solve(s.b, s.dv);
+      s.Multiply(s.dv, s.ap);
+      stats_.relative_residual = (s.b - s.ap).norm() / s.b.norm();
+    } else if (stats_.cg_iterations > model.get_config().refactor_iteration_threshold) {
+      if (s.worker.joinable()) {
+        s.RequestBackgroundFactor();
+      } else {
+        s.RefactorizeNow();
+        stats_.refactorized = true;
+      }
+    }
+  }
+
+  // free motion
+  for (int i = 0; i < n; ++i) state.dv_free.col(i) = s.full_w.col(i) - state.v.col(i);
+  for (int k = 0; k < s.num_free; ++k) state.dv_free.col(free_nodes[k]) = s.dv.segment<3>(3 * k);
+  state.x_free = state.x + s.h * (state.v + state.dv_free);
+  return stats_;
+}
+
+void FemSolver::ApplyInverse(const Eigen::Ref<const Eigen::MatrixXd>& rhs, Eigen::MatrixXd& out,
+                             FemInverse which) {
+  NSIM_CHECK(rhs.rows() == 3 * model_.num_nodes(), "ApplyInverse needs 3n = ",
+             3 * model_.num_nodes(), " rows, got ", rhs.rows());
+  impl_->GatherFree(rhs);
+  impl_->SolveGathered(out, which);
+}
+
+void FemSolver::ApplyInverse(const Eigen::SparseMatrix<double>& rhs, Eigen::MatrixXd& out,
+                             FemInverse which) {
+  NSIM_CHECK(rhs.rows() == 3 * model_.num_nodes(), "ApplyInverse needs 3n = ",
+             3 * model_.num_nodes(), " rows, got ", rhs.rows());
+  Impl& s = *impl_;
+  s.multi_in.setZero(3 * s.num_free, rhs.cols());
+  for (int c = 0; c < rhs.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(rhs, c); it; ++it) {
+      const int row = static_cast<int>(it.row());
+      const int k = model_.get_free_index(row / 3);
+      if (k >= 0) s.multi_in(3 * k + row % 3, c) += it.value();
+    }
+  s.SolveGathered(out, which);
+}
+
+void FemSolver::CommitStep(FemState& state) {
+  CommitStep(state, impl_->zero_correction);
+}
+
+void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::VectorXd>& dv_correction) {
+  Impl& s = *impl_;
+  const FemModel& model = model_;
+  const int n = model.num_nodes();
+  if (dv_correction.size() != 3 * n || !dv_correction.allFinite())
+    throw InputError(Str("velocity correction must be finite with 3n = ", 3 * n, " entries, got ",
+                         dv_correction.size()));
+  const auto& dirichlet = model.get_dirichlet_nodes();
+  for (int i : dirichlet)
+    if (dv_correction.segment<3>(3 * i).squaredNorm() != 0.0)
+      throw InputError(Str("velocity correction must be zero at Dirichlet node ", i));
+
+  // total dv (full_w) and dv + v (full_out) for the reactions
+  for (int i = 0; i < n; ++i) {
+    s.full_w.col(i) = state.dv_free.col(i) + dv_correction.segment<3>(3 * i);
+    s.full_sum.col(i) = s.full_w.col(i) + state.v.col(i);
+  }
+
+  // reactions r_d = [(1 + h alpha) M dv + h alpha M v + (h beta + h^2) K (dv + v)]_d / h - f_d
+  const auto& tets = model.get_mesh().tets;
+  for (int i : dirichlet) s.full_out.col(i).setZero();
+  for (int e : model.get_dirichlet_tets()) {
+    const Eigen::Vector4i& t = tets[e];
+    Matrix34d pe;
+    for (int a = 0; a < 4; ++a) pe.col(a) = s.full_sum.col(t[a]);
+    const Matrix34d ye = ApplyCorotatedStiffness(model.get_rest_shapes()[e], s.lame, s.rotations[e], pe);
+    for (int a = 0; a < 4; ++a)
+      if (model.get_free_index(t[a]) < 0) s.full_out.col(t[a]) += ye.col(a);
+  }
+  const double alpha = model.get_config().rayleigh_mass;
+  const Eigen::VectorXd& mass = model.get_lumped_mass();
+  for (size_t j = 0; j < dirichlet.size(); ++j) {
+    const int i = dirichlet[j];
+    state.reaction_forces.col(j) =
+        (s.mass_scale * mass[i] * s.full_w.col(i) + s.h * alpha * mass[i] * state.v.col(i) +
+         s.stiffness_scale * s.full_out.col(i)) / s.h -
+        state.forces.col(i);
+  }
+
+  // advance
+  state.v += s.full_w;
+  state.x += s.h * state.v;
+  const auto& prescribed = model.get_prescribed_nodes();
+  for (size_t k = 0; k < prescribed.size(); ++k) state.x.col(prescribed[k]) = state.prescribed_positions.col(k);
+  state.time += s.h;
+}
+
+void FemSolver::WaitForBackgroundFactorization() {
+  Impl& s = *impl_;
+  if (!s.worker.joinable()) return;
+  std::unique_lock<std::mutex> lock(s.mutex);
+  s.wake.wait(lock, [&s] { return !s.job_busy || s.job_done; });
+}
+
+const Eigen::SparseMatrix<double>& FemSolver::CalcSystemMatrix() {
+  impl_->Assemble(impl_->matrix);
+  // the assembled values no longer match a factor made from a different A; the factor itself
+  // is untouched, so nothing else changes
+  return impl_->matrix;
+}
+
+}  // namespace nsim

@@ -1,0 +1,128 @@
+#pragma once
+// Implicit co-rotational FEM time stepping and the linear-system API used by the Lagrangian
+// constraint solver (common/constraints).
+//
+// One step (backward Euler linearized once, DESIGN.md "Physics"):
+//
+//   A dv = b,   A = (1 + h alpha) M + (h beta + h^2) K(R),
+//               b = h f - h alpha M v - (h beta + h^2) K(R) v,
+//   v+ = v + dv,  x+ = x + h v+,
+//
+// with M the lumped mass, K(R) = sum_e R_e K_e R_e^T the co-rotated stiffness (positive
+// semi-definite, K = -df/dx up to the rotation derivative), C = alpha M + beta K the Rayleigh
+// damping and f = elastic + gravity + external forces at x. (This is DESIGN.md's
+// (M + hC + h^2K) dv = h (f + hKv) written with K positive and the damping force -C v in f.)
+// Dirichlet nodes (fixed: v+ = 0; prescribed: x+ = FemState::prescribed_positions) are
+// eliminated exactly: their dv is known, A_fd dv_d moves to the right-hand side, and only the
+// free block A_ff dv_f = b_f - A_fd dv_d is solved. Nothing allocates inside a step apart from
+// CHOLMOD's internal workspaces (see fem_solver_no_malloc_test.cpp for what is checked).
+//
+// Constraint-solver API (Duriez 2009 / thesis §3.1), per step:
+//
+//   FemSolver solver(model);                 // once: pattern analysis, rest factorization
+//   solver.BeginStep(state);                 // (1) free motion: state.dv_free, state.x_free
+//   solver.ApplyInverse(Ht, AinvHt);         // (2) A^-1 H^T, 3n x k (dense or sparse H^T);
+//                                            //     W = H A^-1 H^T is formed by the caller
+//   ... solve for lambda ...
+//   dv_c = AinvHt * impulse;                 // impulse in N s (h * force lambda)
+//   solver.CommitStep(state, dv_c);          // (3) v+ = v + dv_free + dv_c, x+ = x + h v+
+//
+// Units: A is in kg, so A^-1 maps an impulse (N s) to a velocity change (m/s); a position
+// correction is h dv. All 3n-sized vectors and matrices use node-major DOF order
+// (node i -> rows 3i, 3i+1, 3i+2) over ALL nodes; the rows of Dirichlet nodes of A^-1 B are zero
+// (their motion is prescribed, so no impulse moves them; an impulse on them goes to the support
+// and appears in FemState::reaction_forces).
+//
+// Exactness of A^-1 (FemInverse):
+//   kCurrentSystem  A^-1 of this step's co-rotated A. Direct solver: one multi-RHS CHOLMOD solve
+//                   with this step's factor, exact to round-off. PCG solver: one PCG per column,
+//                   each to cg_relative_tolerance (k solves: costly for many columns).
+//   kCachedFactor   the PCG preconditioner P^-1 = Q A_ref^-1 Q^T (A_ref: the cached factor's
+//                   matrix, Q: nodal rotations since it was factored), one multi-RHS CHOLMOD
+//                   solve. On the direct path P = A exactly. On the PCG path it is an
+//                   APPROXIMATE compliance (exact for rigidly rotated, otherwise off by the
+//                   deviation of the current rotations from the cached ones): constraints
+//                   solved with it are satisfied by the corrected state (dv_c is computed with
+//                   the same operator), but the correction's dynamics are approximate, as with
+//                   SOFA's cached-compliance constraint corrections.
+//
+// Threading: a FemSolver belongs to one thread (plus its own background worker when
+// FemConfig::background_refactor is set). BLAS threads: set OPENBLAS_NUM_THREADS=1 for
+// single-core timing.
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <memory>
+
+#include "common/fem/fem_model.h"
+#include "common/fem/fem_state.h"
+
+namespace nsim {
+
+/// Which operator FemSolver::ApplyInverse applies; see the header comment.
+enum class FemInverse { kCurrentSystem, kCachedFactor };
+
+/// What the last free-motion solve did.
+struct FemStepStats {
+  int cg_iterations = 0;          ///< PCG iterations (0 on the direct path)
+  double relative_residual = 0;   ///< ||b - A dv|| / ||b|| of the free-motion solve (true residual)
+  bool refactorized = false;      ///< a numeric factorization ran on this thread in this step
+  bool factor_swapped = false;    ///< a background factorization was adopted at this step
+  bool fell_back_to_direct = false;  ///< PCG hit cg_max_iterations; solved with a fresh factor
+  int inverted_tets = 0;          ///< tets with det F <= kPolarSvdThreshold at the step's x
+};
+
+class FemSolver {
+ public:
+  /// Analyses the pattern, factorizes the rest system A_0 = (1 + h alpha) M + (h beta + h^2) K_0.
+  /// `model` must outlive the solver.
+  explicit FemSolver(const FemModel& model);
+  ~FemSolver();
+  FemSolver(const FemSolver&) = delete;
+  FemSolver& operator=(const FemSolver&) = delete;
+
+  /// One unconstrained step: BeginStep then CommitStep(state).
+  FemStepStats Step(FemState& state);
+
+  /// (1) Free motion: computes the element rotations at state.x, the forces and this step's
+  /// A and b, solves A dv = b and writes state.rotations, state.forces, state.dv_free and
+  /// state.x_free. Does not advance state.x, state.v or state.time. Throws InputError when
+  /// state.prescribed_positions or state.external_forces contain non-finite values.
+  FemStepStats BeginStep(FemState& state);
+
+  /// (2) out = A^-1 rhs for rhs of size 3n x k (n = #nodes, node-major DOFs), out resized to
+  /// 3n x k; rows of Dirichlet DOFs of rhs are ignored and zero in out. Valid between BeginStep
+  /// and the next BeginStep.
+  void ApplyInverse(const Eigen::Ref<const Eigen::MatrixXd>& rhs, Eigen::MatrixXd& out,
+                    FemInverse which = FemInverse::kCurrentSystem);
+  /// Same with sparse columns (e.g. H^T, 3n x k with 12 entries a column for a barycentric
+  /// point): only the touched entries are gathered; the solve itself is a dense multi-RHS solve.
+  void ApplyInverse(const Eigen::SparseMatrix<double>& rhs, Eigen::MatrixXd& out,
+                    FemInverse which = FemInverse::kCurrentSystem);
+
+  /// (3) Ends the step: v+ = v + dv_free + dv_correction, x+ = x + h v+, time += h, and the
+  /// reaction forces at the Dirichlet nodes. dv_correction is 3n (m/s) with zero Dirichlet rows
+  /// (as returned by ApplyInverse); checked, NaN rejected with InputError.
+  void CommitStep(FemState& state, const Eigen::Ref<const Eigen::VectorXd>& dv_correction);
+  /// Ends the step without a correction.
+  void CommitStep(FemState& state);
+
+  /// Waits for a running background factorization (if any) and adopts it at the next BeginStep.
+  void WaitForBackgroundFactorization();
+
+  const FemModel& get_model() const { return model_; }
+  const FemStepStats& get_last_stats() const { return stats_; }
+  /// Numeric factorizations done so far (construction included), on any thread.
+  int get_factorization_count() const;
+  /// The reduced system matrix A_ff of the current step (assembled on demand, Calc: costs an
+  /// assembly). For tests and diagnostics.
+  const Eigen::SparseMatrix<double>& CalcSystemMatrix();
+
+ private:
+  struct Impl;
+  const FemModel& model_;
+  std::unique_ptr<Impl> impl_;
+  FemStepStats stats_;
+};
+
+}  // namespace nsim

@@ -1,0 +1,181 @@
+// FEM engine benchmarks on the liver meshes (configs/meshes/liver_{700,2660,10000}.msh):
+// one implicit step with the diaphragm nodes prescribed (breathing), the inferior tip fixed,
+// gravity, after 1 s of simulated breathing (moderate deformation). Measure on one core:
+//   OPENBLAS_NUM_THREADS=1 taskset -c 0 fem_bench --benchmark_repetitions=5
+//       --benchmark_report_aggregates_only=true
+// Names: what/size (#nodes). LiverStep = default fast path (PCG + cached warped factor,
+// synchronous refresh), LiverStepBackgroundRefresh = same with the refresh on the second core,
+// LiverStepRefactorEveryStep = direct CHOLMOD path, Refactorize = one numeric factorization,
+// Solve = one solve with a factor, ApplyInverse40 = A^-1 on 40 sparse constraint columns.
+
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <string>
+
+#include "common/fem/cholmod_factor.h"
+#include "common/fem/fem_solver.h"
+#include "common/mesh/gmsh_reader.h"
+
+namespace nsim {
+namespace {
+
+struct LiverScene {
+  TetMesh mesh;
+  FemBoundary boundary;
+};
+
+// superior 15 % of the height: diaphragm (prescribed); inferior 5 %: fixed
+LiverScene MakeScene(const std::string& path) {
+  LiverScene scene;
+  scene.mesh = ReadGmshMesh(path);
+  const double z_min = scene.mesh.X.row(2).minCoeff(), z_max = scene.mesh.X.row(2).maxCoeff();
+  const double height = z_max - z_min;
+  for (int i = 0; i < scene.mesh.num_nodes(); ++i) {
+    const double z = scene.mesh.X(2, i);
+    if (z > z_max - 0.15 * height) scene.boundary.prescribed_nodes.push_back(i);
+    else if (z < z_min + 0.05 * height) scene.boundary.fixed_nodes.push_back(i);
+  }
+  return scene;
+}
+
+std::string MeshPath(int nodes) {
+  return std::string(NSIM_SOURCE_DIR) + "/configs/meshes/liver_" + std::to_string(nodes) + ".msh";
+}
+
+// breathing: 12 mm superior-inferior, 4 mm antero-posterior, 4 s period, cos^2 shape
+void Breathe(const FemModel& model, FemState& state, double t) {
+  const double phase = std::pow(std::cos(M_PI * t / 4.0), 2);
+  const Eigen::Vector3d offset(0.0, -0.004 * (1 - phase), -0.012 * (1 - phase));
+  const auto& nodes = model.get_prescribed_nodes();
+  for (size_t k = 0; k < nodes.size(); ++k)
+    state.prescribed_positions.col(k) = model.get_rest_positions().col(nodes[k]) + offset;
+}
+
+struct Fixture {
+  std::unique_ptr<FemModel> model;
+  std::unique_ptr<FemSolver> solver;
+  std::unique_ptr<FemState> state;
+
+  Fixture(int nodes, FemLinearSolver kind, bool background) {
+    const LiverScene scene = MakeScene(MeshPath(nodes));
+    FemConfig config;  // liver: E 5.5 kPa, nu 0.45, rho 1060, h 20 ms
+    config.rayleigh_mass = 0.1;
+    config.rayleigh_stiffness = 0.01;
+    config.linear_solver = kind;
+    config.background_refactor = background;
+    model = std::make_unique<FemModel>(scene.mesh, config, scene.boundary);
+    solver = std::make_unique<FemSolver>(*model);
+    state = std::make_unique<FemState>(*model);
+    for (int step = 0; step < 50; ++step) Step();  // 1 s of breathing
+  }
+  FemStepStats Step() {
+    Breathe(*model, *state, state->time + model->get_config().time_step);
+    return solver->Step(*state);
+  }
+};
+
+void RunSteps(benchmark::State& bench, int nodes, FemLinearSolver kind, bool background) {
+  Fixture fixture(nodes, kind, background);
+  double iterations = 0, refactorizations = 0, swaps = 0, steps = 0;
+  for (auto _ : bench) {
+    const FemStepStats stats = fixture.Step();
+    iterations += stats.cg_iterations;
+    refactorizations += stats.refactorized;
+    swaps += stats.factor_swapped;
+    steps += 1;
+  }
+  bench.counters["cg_iterations"] = iterations / steps;
+  bench.counters["refactor_per_step"] = refactorizations / steps;
+  bench.counters["bg_swaps_per_step"] = swaps / steps;
+  bench.counters["dofs"] = 3.0 * fixture.model->num_free_nodes();
+}
+
+void Refactorize(benchmark::State& bench, int nodes) {
+  Fixture fixture(nodes, FemLinearSolver::kDirect, false);
+  const Eigen::SparseMatrix<double> A = fixture.solver->CalcSystemMatrix();
+  CholmodFactor factor;
+  factor.Analyze(A);
+  for (auto _ : bench) benchmark::DoNotOptimize(factor.Factorize(A));
+  bench.counters["nnz_A"] = static_cast<double>(A.nonZeros());
+  bench.counters["nnz_L"] = factor.get_factor_nnz();
+  bench.counters["gflop"] = factor.get_factor_flops() * 1e-9;
+}
+
+void Solve(benchmark::State& bench, int nodes) {
+  Fixture fixture(nodes, FemLinearSolver::kDirect, false);
+  const Eigen::SparseMatrix<double> A = fixture.solver->CalcSystemMatrix();
+  CholmodFactor factor;
+  factor.Analyze(A);
+  factor.Factorize(A);
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(A.rows());
+  Eigen::VectorXd x(A.rows());
+  for (auto _ : bench) {
+    factor.Solve(b, x);
+    benchmark::DoNotOptimize(x.data());
+  }
+}
+
+// A^-1 H^T for 40 constraint rows, each on the 4 nodes of one tet (barycentric point)
+void ApplyInverse40(benchmark::State& bench, int nodes, FemInverse which) {
+  Fixture fixture(nodes, FemLinearSolver::kPcgCachedFactor, false);
+  const FemModel& model = *fixture.model;
+  Eigen::SparseMatrix<double> Ht(3 * model.num_nodes(), 40);
+  for (int c = 0; c < 40; ++c) {
+    const Eigen::Vector4i& t = model.get_mesh().tets[(c * 7919) % model.num_tets()];
+    for (int a = 0; a < 4; ++a) Ht.insert(3 * t[a] + c % 3, c) = 0.25;
+  }
+  Ht.makeCompressed();
+  Breathe(model, *fixture.state, fixture.state->time + model.get_config().time_step);
+  fixture.solver->BeginStep(*fixture.state);
+  Eigen::MatrixXd out;
+  for (auto _ : bench) {
+    fixture.solver->ApplyInverse(Ht, out, which);
+    benchmark::DoNotOptimize(out.data());
+  }
+}
+
+}  // namespace
+}  // namespace nsim
+
+int main(int argc, char** argv) {
+  using namespace nsim;
+  const char* threads = std::getenv("OPENBLAS_NUM_THREADS");
+  benchmark::AddCustomContext("OPENBLAS_NUM_THREADS", threads ? threads : "unset (all cores)");
+  for (int nodes : {700, 2660, 10000}) {
+    if (!std::ifstream(MeshPath(nodes))) continue;
+    const std::string n = std::to_string(nodes);
+    benchmark::RegisterBenchmark(("LiverStep/" + n).c_str(), [nodes](benchmark::State& s) {
+      RunSteps(s, nodes, FemLinearSolver::kPcgCachedFactor, false);
+    })->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("LiverStepBackgroundRefresh/" + n).c_str(),
+                                 [nodes](benchmark::State& s) {
+                                   RunSteps(s, nodes, FemLinearSolver::kPcgCachedFactor, true);
+                                 })->Unit(benchmark::kMillisecond);
+    if (nodes <= 2660) {
+      benchmark::RegisterBenchmark(("LiverStepRefactorEveryStep/" + n).c_str(),
+                                   [nodes](benchmark::State& s) {
+                                     RunSteps(s, nodes, FemLinearSolver::kDirect, false);
+                                   })->Unit(benchmark::kMillisecond);
+    }
+    benchmark::RegisterBenchmark(("Refactorize/" + n).c_str(), [nodes](benchmark::State& s) {
+      Refactorize(s, nodes);
+    })->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("Solve/" + n).c_str(), [nodes](benchmark::State& s) {
+      Solve(s, nodes);
+    })->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("ApplyInverse40CachedFactor/" + n).c_str(),
+                                 [nodes](benchmark::State& s) {
+                                   ApplyInverse40(s, nodes, FemInverse::kCachedFactor);
+                                 })->Unit(benchmark::kMillisecond);
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
