@@ -6,8 +6,6 @@
 
 #include <benchmark/benchmark.h>
 
-#include <cstdio>
-#include <fstream>
 #include <memory>
 
 #include "common/constraints/constraint_solver.h"
@@ -22,17 +20,9 @@ namespace {
 
 constexpr int kNeedlePoints = 13;
 
-// the liver mesh (Gmsh, millimetres, scaled to metres), or a 14^3-node box if it is missing
+// the committed liver mesh (metres)
 TetMesh LoadLiver() {
-  const std::string path = std::string(NSIM_SOURCE_DIR) + "/configs/meshes/liver_2660.msh";
-  if (std::ifstream(path).good()) {
-    TetMesh mesh = ReadGmshMesh(path);
-    const double extent = (mesh.X.rowwise().maxCoeff() - mesh.X.rowwise().minCoeff()).maxCoeff();
-    if (extent > 2.0) mesh.X *= 1e-3;  // stored in mm
-    return mesh;
-  }
-  std::fprintf(stderr, "constraints_bench: %s missing, using a 2744-node box\n", path.c_str());
-  return MakeBoxTetMesh(Eigen::Vector3i(14, 14, 14), Eigen::Vector3d(0.15, 0.15, 0.15));
+  return ReadGmshMesh(std::string(NSIM_SOURCE_DIR) + "/configs/meshes/liver_2660.msh");
 }
 
 // the scene: liver fixed on its lowest-x tenth, a needle along x through the centre
