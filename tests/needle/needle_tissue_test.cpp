@@ -1,0 +1,239 @@
+#include "common/needle/needle_tissue.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/core/error.h"
+#include "tests/needle/test_scene.h"
+
+namespace nsim {
+namespace {
+
+using testing::DownwardFlange;
+using testing::FemBlock;
+
+// a 4 x 4 x 4 cm block of 5 kPa tissue, 8 mm elements; a 10 cm rigid needle above its centre
+constexpr double kSide = 0.04;
+constexpr double kNeedleLength = 0.10;
+constexpr double kGap = 1e-3;           // tip to the top face at the start (m)
+constexpr double kStepAdvance = 0.5e-3; // needle travel per 20 ms step (m)
+// bilateral rows are met to round-off by the direct solve: 1e-7 of the element size
+constexpr double kLineTol = 1e-9;
+// friction bounds hold to the solver's force tolerance (1e-9 relative to 1 + max |lambda|, N)
+constexpr double kForceTol = 2e-9;
+
+struct Scene {
+  FemBlock block{Eigen::Vector3i(6, 6, 6), Eigen::Vector3d(kSide, kSide, kSide),
+                 Eigen::Vector3d::Zero()};
+  RigidNeedleModel needle_model{[] {
+    NeedleConfig c;
+    c.length = kNeedleLength;
+    return c;
+  }()};
+  RigidNeedleState needle;
+  std::unique_ptr<NeedleTissueCoupling> coupling;
+  NeedleCouplingState state;
+  std::unique_ptr<NeedleInsertionStepper> stepper;
+  Eigen::Vector3d base0;
+  double travel = 0.0;  // needle travel along -Z so far (m)
+
+  explicit Scene(const TissueCouplingConfig& tissue) {
+    NeedleCouplingConfig config;
+    config.tissues = {tissue};
+    coupling = std::make_unique<NeedleTissueCoupling>(config, std::vector<const TetMesh*>{&block.mesh});
+    state = coupling->MakeState();
+    stepper = std::make_unique<NeedleInsertionStepper>(*coupling);
+    base0 = Eigen::Vector3d(kSide / 2 + 1e-4, kSide / 2 + 2e-4, kSide + kGap + kNeedleLength);
+    ResetRigidNeedle(needle_model, DownwardFlange(base0), needle);
+  }
+  // advances the needle by `ds` along its axis (negative: retracts) and moves it laterally
+  NeedleStepReport Step(double ds, const Eigen::Vector3d& lateral = Eigen::Vector3d::Zero()) {
+    travel += ds;
+    base0 += lateral;
+    return stepper->StepRigid(needle_model, needle,
+                              DownwardFlange(base0 - travel * Eigen::Vector3d::UnitZ()),
+                              {block.body.get()}, state);
+  }
+  const TissueCouplingReport& report() const { return state.tissues[0].report; }
+  const TissueCouplingState& tissue() const { return state.tissues[0]; }
+  Eigen::Vector3d tip() const { return CalcTipPosition(needle.X_WN_start, kNeedleLength); }
+  // distance of a tissue point (current configuration) to the needle line
+  double DistanceToNeedle(const NeedlePathPoint& p) const {
+    const Eigen::Vector3d x = EvalTetPoint(block.mesh, block.state->x, p.point);
+    const Eigen::Vector3d a = needle.X_WN_start.translation();
+    const Eigen::Vector3d z = needle.X_WN_start.linear().col(2);
+    return ((x - a) - (x - a).dot(z) * z).norm();
+  }
+};
+
+TissueCouplingConfig MakeTissue() {
+  TissueCouplingConfig t;
+  t.name = "block";
+  t.puncture_force = 0.05;
+  t.point_spacing = 5e-3;
+  t.friction_coefficient = 0.0;
+  return t;
+}
+
+TEST(NeedleTissueTest, StraightInsertionKeepsTissuePointsOnTheNeedleLine) {
+  Scene scene(MakeTissue());
+  double puncture_travel = -1;
+  for (int k = 0; k < 70; ++k) {
+    // points held during the step (a point seeded by this step's update is at the tip; the
+    // entry point comes from the contact, which held it along the surface normal only)
+    const bool was_inside = scene.report().punctured;
+    const size_t held = scene.tissue().points.size();
+    const NeedleStepReport r = scene.Step(kStepAdvance);
+    EXPECT_TRUE(r.solve.converged);
+    if (scene.report().punctured && puncture_travel < 0) puncture_travel = scene.travel;
+    if (!was_inside) continue;
+    ASSERT_GE(scene.tissue().points.size(), held);
+    for (size_t i = 0; i < held; ++i)
+      ASSERT_LT(scene.DistanceToNeedle(scene.tissue().points[i]), kLineTol) << "step " << k;
+  }
+  EXPECT_GT(puncture_travel, kGap);
+  ASSERT_TRUE(scene.report().punctured);
+  EXPECT_EQ(scene.report().phase, TissuePhase::kInside);
+  // depth = tip below the entry point along the needle; one point per spacing plus the entry
+  const double depth = scene.report().depth;
+  EXPECT_GT(depth, 0.015);
+  EXPECT_EQ(scene.report().num_points, 1 + static_cast<int>(std::floor(depth / 5e-3 + 1e-9)));
+  EXPECT_EQ(scene.tissue().points.front().kind, NeedlePathPoint::Kind::kEntry);
+  // an axial insertion of a symmetric tip pushes sideways only by the mesh asymmetry
+  EXPECT_LT(scene.report().lateral_force, 0.02 * MakeTissue().puncture_force);
+  // the tissue was dragged down at contact and relaxed after the puncture: tip is inside
+  EXPECT_LT(scene.tip().z(), kSide - 0.01);
+}
+
+TEST(NeedleTissueTest, PunctureHappensAtTheThresholdAndNotBefore) {
+  // push 2.5 mm into the surface and hold: the run is deterministic, so the largest axial
+  // contact force of a run that cannot puncture bounds every run up to its puncture
+  constexpr int kPushSteps = 7, kHoldSteps = 60;
+  auto run = [](TissueCouplingConfig tissue, double* max_force, double* force_at_puncture,
+                double* force_before) {
+    Scene scene(tissue);
+    *max_force = 0.0;
+    double previous = 0.0;
+    for (int k = 0; k < kPushSteps + kHoldSteps; ++k) {
+      scene.Step(k < kPushSteps ? kStepAdvance : 0.0);
+      const TissueCouplingReport& r = scene.report();
+      if (r.punctured) {
+        *force_at_puncture = r.axial_contact_force;
+        *force_before = previous;
+        EXPECT_NEAR(r.puncture_time, scene.block.state->time, 1e-12);
+        EXPECT_EQ(r.num_points, 1);
+        return true;
+      }
+      *max_force = std::max(*max_force, r.axial_contact_force);
+      previous = r.axial_contact_force;
+    }
+    return false;
+  };
+  TissueCouplingConfig tissue = MakeTissue();
+  tissue.puncture_force = 1e3;
+  double max_force = 0, at = 0, before = 0;
+  ASSERT_FALSE(run(tissue, &max_force, &at, &before));
+  ASSERT_GT(max_force, 0.0);
+  // just above the largest force: no puncture
+  tissue.puncture_force = 1.01 * max_force;
+  EXPECT_FALSE(run(tissue, &max_force, &at, &before));
+  // just below: punctures, at the first step whose force reaches the threshold
+  tissue.puncture_force = 0.99 * max_force;
+  ASSERT_TRUE(run(tissue, &max_force, &at, &before));
+  EXPECT_GE(at, tissue.puncture_force);
+  EXPECT_LT(before, tissue.puncture_force);
+}
+
+TEST(NeedleTissueTest, ConstantFrictionSaturatesWhileSliding) {
+  // mu = 0, stiction 4 N/m: every point slides at f_0 = 4 N/m x 5 mm = 0.02 N while inserting
+  TissueCouplingConfig tissue = MakeTissue();
+  tissue.friction_force_per_length = 4.0;
+  const double f0 = 4.0 * tissue.point_spacing;
+  Scene scene(tissue);
+  int slipping_seen = 0;
+  for (int k = 0; k < 60; ++k) {
+    const NeedleStepReport r = scene.Step(kStepAdvance);
+    EXPECT_TRUE(r.solve.converged);
+    for (const NeedlePathPoint& p : scene.tissue().points) {
+      EXPECT_LE(std::abs(p.axial_force), f0 + kForceTol);
+      if (p.slipping) {
+        ++slipping_seen;
+        // the needle drags the tissue inwards: along the needle direction
+        EXPECT_NEAR(p.axial_force, f0, kForceTol);
+      }
+    }
+  }
+  EXPECT_GT(slipping_seen, 10);
+  EXPECT_GT(scene.report().friction_force, 0.0);
+}
+
+TEST(NeedleTissueTest, CoulombFrictionIsBoundedByMuTimesTheLateralForce) {
+  TissueCouplingConfig tissue = MakeTissue();
+  tissue.friction_coefficient = 0.3;
+  Scene scene(tissue);
+  int slipping = 0, sticking = 0;
+  for (int k = 0; k < 70; ++k) {
+    // insert while drifting sideways: the tissue presses on the shaft
+    const NeedleStepReport r =
+        scene.Step(kStepAdvance, k > 20 ? Eigen::Vector3d(2e-5, 0, 0) : Eigen::Vector3d::Zero());
+    EXPECT_TRUE(r.solve.converged);
+    for (const NeedlePathPoint& p : scene.tissue().points) {
+      const double bound = 0.3 * p.lateral_force.norm();
+      EXPECT_LE(std::abs(p.axial_force), bound + kForceTol);
+      if (p.slipping) ++slipping;
+      else if (p.lateral_force.norm() > 0.0) ++sticking;
+    }
+  }
+  EXPECT_GT(slipping, 0);
+  EXPECT_GT(scene.report().lateral_force, 0.0);
+  (void)sticking;
+}
+
+TEST(NeedleTissueTest, RetractionRemovesThePointsBehindTheTip) {
+  Scene scene(MakeTissue());
+  for (int k = 0; k < 60; ++k) scene.Step(kStepAdvance);
+  const int inserted_points = scene.report().num_points;
+  ASSERT_GE(inserted_points, 4);
+  int previous = inserted_points;
+  for (int k = 0; k < 80; ++k) {
+    scene.Step(-kStepAdvance);
+    const TissueCouplingState& t = scene.tissue();
+    EXPECT_LE(static_cast<int>(t.points.size()), previous);
+    previous = static_cast<int>(t.points.size());
+    // no remaining point is ahead of the tip by more than the slack
+    const Eigen::Vector3d z = scene.needle.X_WN_start.linear().col(2);
+    for (const NeedlePathPoint& p : t.points) {
+      const Eigen::Vector3d x = EvalTetPoint(scene.block.mesh, scene.block.state->x, p.point);
+      EXPECT_LE(z.dot(x - scene.tip()), 0.1 * 5e-3 + 1e-12);
+    }
+  }
+  EXPECT_EQ(scene.report().phase, TissuePhase::kOutside);
+  EXPECT_FALSE(scene.report().punctured);
+  EXPECT_EQ(scene.report().num_points, 0);
+  // no needle rows are left once the needle is out and away
+  for (int k = 0; k < 5; ++k) scene.Step(-kStepAdvance);
+  EXPECT_EQ(scene.stepper->set().num_rows(), 0);
+}
+
+TEST(NeedleTissueTest, BadConfigNamesTheKey) {
+  NeedleCouplingConfig config;
+  config.tissues.resize(2);
+  config.tissues[1].point_spacing = 0.0;
+  try {
+    config.Validate();
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("coupling.tissues[1].point_spacing must be > 0"),
+              std::string::npos);
+  }
+  config.tissues[1].point_spacing = 0.01;
+  config.tissues[0].friction_coefficient = -1;
+  EXPECT_THROW(config.Validate(), InputError);
+  config.tissues[0].friction_coefficient = 0;
+  const TetMesh mesh = MakeBoxTetMesh(Eigen::Vector3i(2, 2, 2), Eigen::Vector3d(1, 1, 1));
+  EXPECT_THROW(NeedleTissueCoupling(config, {&mesh}), InputError);  // one mesh for two tissues
+}
+
+}  // namespace
+}  // namespace nsim
