@@ -19,12 +19,17 @@ FemConstraintBody::FemConstraintBody(FemSolver& solver, FemState& state, FemInve
              state.num_nodes(), " nodes, the solver's model ", solver.get_model().num_nodes());
   dv_.setZero(3 * state.num_nodes());
   version_ = ++fem_version_counter;
+  factor_version_ = solver.get_factor_version();
 }
 
 FemStepStats FemConstraintBody::BeginStep() {
   NSIM_CHECK(!in_step_, "BeginStep called twice without committing the step");
   const FemStepStats stats = solver_.BeginStep(state_);
-  version_ = ++fem_version_counter;
+  // the reference factor's inverse stays the same until the factor is replaced, so cached
+  // compliance columns stay valid; the other operators change with every step's rotations
+  if (which_ != FemInverse::kReferenceFactor || solver_.get_factor_version() != factor_version_)
+    version_ = ++fem_version_counter;
+  factor_version_ = solver_.get_factor_version();
   in_step_ = true;
   return stats;
 }

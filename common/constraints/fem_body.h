@@ -8,13 +8,13 @@
 //   constraint_solver.Solve(set);     // ApplyCompliance, then ApplyCorrection -> CommitStep
 //   body.EndStep();                   // commits without correction if no solve did
 //
-// The compliance is C = h^2 A^-1 with the operator selected by FemInverse: kCachedFactor (one
-// multi-RHS CHOLMOD solve; exact on the direct path, the warped cached factor on the PCG path,
-// see fem_solver.h) or kCurrentSystem (exact, but one PCG per column on the PCG path).
-// The correction is applied with the same operator, so constraints are met by the corrected
-// state either way. The FEM operator changes every step (new co-rotated matrix, or new nodal
-// warp of the cached factor), so compliance_version() changes at every BeginStep and the
-// compliance columns are not reused across steps (see the report for what would allow it).
+// The compliance is C = h^2 A^-1 with the operator selected by FemInverse (see fem_solver.h):
+// kReferenceFactor (default: the last factor's exact inverse, unwarped; constant between
+// factorizations, so compliance_version() only changes when the factor does and the columns of
+// persistent constraint points are reused across steps; moves rigid translations rigidly),
+// kCachedFactor (the factor warped by nodal rotations; changes every step) or kCurrentSystem
+// (exact, but one PCG per column on the PCG path). The correction is applied with the same
+// operator, so constraints are met by the corrected state in every mode.
 
 #include <Eigen/Core>
 
@@ -28,9 +28,10 @@ class FemConstraintBody : public ConstraintBody {
  public:
   /// solver and state (of solver's model) must outlive the adapter.
   FemConstraintBody(FemSolver& solver, FemState& state,
-                    FemInverse compliance = FemInverse::kCachedFactor);
+                    FemInverse compliance = FemInverse::kReferenceFactor);
 
-  /// Free motion of the step (FemSolver::BeginStep); starts a new compliance version.
+  /// Free motion of the step (FemSolver::BeginStep); starts a new compliance version unless
+  /// the operator is the unchanged reference factor.
   FemStepStats BeginStep();
   /// Ends the step without a correction unless ApplyCorrection already committed it.
   void EndStep();
@@ -58,6 +59,7 @@ class FemConstraintBody : public ConstraintBody {
   double h_;
   bool in_step_ = false;
   std::uint64_t version_ = 0;
+  std::uint64_t factor_version_ = 0;  // solver factor version at the last BeginStep
   Eigen::VectorXd dv_;  // scratch: 3n velocity correction
 };
 

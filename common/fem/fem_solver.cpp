@@ -46,6 +46,7 @@ struct FemSolver::Impl {
   std::condition_variable wake;
   bool job_pending = false, job_busy = false, job_done = false, job_ok = false, quit = false;
   std::atomic<int> factorizations{0};
+  std::uint64_t factor_version = 0;  // bumped when `active` is replaced or refactorized
 
   explicit Impl(const FemModel& m)
       : model(m),
@@ -253,6 +254,7 @@ struct FemSolver::Impl {
     Assemble(matrix);
     NSIM_CHECK(active->Factorize(matrix), "system matrix is not positive definite");
     ++factorizations;
+    ++factor_version;
     reference_rotations = nodal_rotations;
     for (auto& q : warp) q.setIdentity();
     factor_is_current = true;
@@ -268,6 +270,7 @@ struct FemSolver::Impl {
     if (!job_ok) return false;  // a failed factorization is dropped, the old factor stays
     std::swap(active, spare);
     std::swap(reference_rotations, background_rotations);
+    ++factor_version;
     return true;
   }
 
@@ -299,7 +302,9 @@ struct FemSolver::Impl {
   void SolveGathered(Eigen::MatrixXd& out, FemInverse which) {
     const Eigen::Index k = multi_in.cols();
     multi_out.resize(3 * num_free, k);
-    if (which == FemInverse::kCachedFactor || factor_is_current) {
+    if (which == FemInverse::kReferenceFactor) {
+      active->Solve(multi_in, multi_out);
+    } else if (which == FemInverse::kCachedFactor || factor_is_current) {
       multi_rotated.resize(3 * num_free, k);
       ApplyPreconditioner(multi_in, multi_rotated, multi_out);
     } else {
@@ -326,6 +331,8 @@ FemSolver::FemSolver(const FemModel& model) : model_(model), impl_(std::make_uni
 FemSolver::~FemSolver() = default;
 
 int FemSolver::get_factorization_count() const { return impl_->factorizations.load(); }
+
+std::uint64_t FemSolver::get_factor_version() const { return impl_->factor_version; }
 
 FemStepStats FemSolver::Step(FemState& state) {
   BeginStep(state);

@@ -45,6 +45,14 @@
 //                   solved with it are satisfied by the corrected state (dv_c is computed with
 //                   the same operator), but the correction's dynamics are approximate, as with
 //                   SOFA's cached-compliance constraint corrections.
+//   kReferenceFactor A_ref^-1 itself, unwarped: the exact inverse of the system matrix at the
+//                   last factorization (its rotations, its time step). It stays the same between
+//                   factorizations (get_factor_version() tells when it changed), so compliance
+//                   columns of constraint points can be cached across steps, and, being the
+//                   inverse of a true co-rotational system, it moves a rigid translation as a
+//                   rigid translation (no spurious momentum). Approximate by the rotation
+//                   since the last factorization; the fast path refreshes the factor when PCG
+//                   needs more than refactor_iterations, which bounds that rotation.
 //
 // Threading: a FemSolver belongs to one thread (plus its own background worker when
 // FemConfig::background_refactor is set). BLAS threads: set OPENBLAS_NUM_THREADS=1 for
@@ -52,6 +60,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <cstdint>
 #include <memory>
 
 #include "common/fem/fem_model.h"
@@ -60,7 +69,7 @@
 namespace nsim {
 
 /// Which operator FemSolver::ApplyInverse applies; see the header comment.
-enum class FemInverse { kCurrentSystem, kCachedFactor };
+enum class FemInverse { kCurrentSystem, kCachedFactor, kReferenceFactor };
 
 /// What the last free-motion solve did.
 struct FemStepStats {
@@ -114,6 +123,9 @@ class FemSolver {
   const FemStepStats& get_last_stats() const { return stats_; }
   /// Numeric factorizations done so far (construction included), on any thread.
   int get_factorization_count() const;
+  /// Changes whenever the factor used by kCachedFactor / kReferenceFactor is replaced (a
+  /// factorization on this thread, or an adopted background one).
+  std::uint64_t get_factor_version() const;
   /// The reduced system matrix A_ff of the current step (assembled on demand, Calc: costs an
   /// assembly). For tests and diagnostics.
   const Eigen::SparseMatrix<double>& CalcSystemMatrix();
