@@ -43,7 +43,7 @@ int RunBreathe(int argc, char** argv) {
       "Writes a synthetic marker stream: markers in a liver-sized region moving with a "
       "Lujan-type cos^2n breathing curve (cycle-to-cycle variation of amplitude and "
       "period, SI-dominant 3D motion, optional drift). CSV columns t,m0_x,m0_y,m0_z,... "
-      "(s, m, world frame; z superior, y anterior, x left).");
+      "(s, m, world frame; z superior, y anterior, x patient right: the frame of configs/meshes).");
   cli.Option("out", "FILE", "output marker CSV", "", true)
       .Option("duration", "S", "stream duration (s)", "60")
       .Option("rate", "HZ", "sampling rate (Hz)", "30")

@@ -30,7 +30,8 @@ struct BreathingConfig {
   int shape_exponent = 2;        ///< n of cos^2n (-), in [1, 6]; larger = longer exhale rest
   double start_phase = 0.0;  ///< fraction of the first cycle already elapsed at t = 0 (-), [0, 1)
   /// Direction the liver moves on inhalation along each anatomical axis, world frame (unit after
-  /// normalization; need not be orthogonal). Default: world z is superior, y anterior, x left.
+  /// normalization; need not be orthogonal). Default: world z is superior, y anterior, x patient
+  /// right (configs/meshes/README.md).
   Eigen::Vector3d axis_si = -Eigen::Vector3d::UnitZ();
   Eigen::Vector3d axis_ap = Eigen::Vector3d::UnitY();        ///< see axis_si
   Eigen::Vector3d axis_lr = Eigen::Vector3d::UnitX();        ///< see axis_si
