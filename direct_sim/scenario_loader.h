@@ -1,0 +1,82 @@
+#pragma once
+// The direct side of a scenario file (YAML -> config structs). The loader owns the sections the
+// direct simulation uses and checks every key of them (unknown keys are errors, so typos are
+// caught); the sections of the other process (controller, prediction, inverse) are known and
+// skipped; any other top-level section is an error. Mesh paths are relative to the scenario
+// file's folder. Errors are InputError "<file>: <key path>: <what>".
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/core/yaml_reader.h"
+#include "common/mesh/tet_mesh.h"
+#include "common/scene/robot_driver.h"
+#include "common/scene/scene_config.h"
+#include "common/scene/target_gate.h"
+#include "direct_sim/viewer.h"
+
+namespace nsim {
+
+/// How direct_sim paces its steps (DESIGN.md "Time, modes and determinism").
+enum class RunMode {
+  kRealtime,  ///< wall-clock paced; the latest valid target is applied each step
+  kLockstep,  ///< waits for the target answering frame k - latency_steps before step k
+};
+
+/// Settings of one run.
+struct RunConfig {
+  double duration = 20.0;  ///< simulated time to run (s), > 0
+  RunMode mode = RunMode::kRealtime;
+  int latency_steps = 1;          ///< lockstep: simulated latency d (steps), >= 0
+  double lockstep_timeout = 5.0;  ///< lockstep: longest wait for a target (s wall), > 0
+  /// With a controller: wait this long (s wall) for the controller's RobotTarget reader
+  /// before starting, > 0.
+  double start_timeout = 30.0;
+  int vtk_every = 0;           ///< write VTK snapshots every N steps (0: never), >= 0
+  bool video = true;           ///< render the view (live window or video file)
+  int view_every = 2;          ///< render every N steps, >= 1
+  double status_period = 0.5;  ///< SimStatus period (s wall), > 0
+
+  /// Throws InputError "run.<key> ...".
+  void Validate() const;
+};
+
+/// The no-controller insertion along the planned path.
+struct InsertionConfig {
+  double approach_distance = 0.01;  ///< the tip starts this far before the entry (m), >= 0
+  double speed = 0.01;              ///< insertion speed without a controller (m/s), > 0
+  /// Without a controller the tip stops this far past the target along the path (m).
+  double overshoot = 0.0;
+
+  void Validate() const;
+};
+
+/// Everything direct_sim needs from a scenario.
+struct DirectScenario {
+  std::string source;        ///< the scenario file
+  uint64_t random_seed = 1;  ///< seeds the breathing unless breathing.random_seed is given
+  PatientSceneConfig scene;
+  TetMesh liver_mesh;  ///< read from patient.liver.mesh (world = liver frame)
+  TetMesh skin_mesh;   ///< read from patient.skin.mesh, in the skin frame
+  std::string liver_mesh_path, skin_mesh_path;
+  RobotDriverConfig robot;
+  InsertionConfig insertion;
+  /// Safety gate; its speed and workspace limits are the robot's (copied by the loader).
+  TargetGateConfig safety;
+  RunConfig run;
+  ViewerConfig view;
+  int dds_domain = 0;
+  std::string dds_partition = "nsim";
+};
+
+/// Top-level sections of the other process, accepted and skipped.
+const std::vector<std::string>& OtherProcessSections();
+
+/// Loads the scenario file and its meshes. InputError on any problem.
+DirectScenario LoadDirectScenario(const std::string& path);
+
+/// Parses a scenario already read; mesh paths are relative to `base_dir`.
+DirectScenario ParseDirectScenario(const YamlReader& root, const std::string& base_dir);
+
+}  // namespace nsim

@@ -1,0 +1,191 @@
+// direct_sim run as a process: a --no-controller insertion (no peer), and a run against a
+// scripted controller in this process that sends good, too fast, out-of-order, stale, unknown
+// and NaN targets and then leaves.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common/core/clock.h"
+#include "messages/transport.h"
+#include "tests/integration/child_process.h"
+
+namespace nsim {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::ChildProcess;
+
+const std::string kBin = NSIM_BIN_DIR;
+const std::string kSource = NSIM_SOURCE_DIR;
+const std::string kDdsConfig = kSource + "/configs/dds/local.xml";
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void Replace(std::string& text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  ASSERT_NE(at, std::string::npos) << from;
+  text.replace(at, from.size(), to);
+}
+
+// the default scenario with the coarse liver (absolute mesh paths) and the given edits
+fs::path WriteScenario(const fs::path& dir,
+                       const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = ReadText(kSource + "/configs/scenarios/liver_breathing.yaml");
+  Replace(text, "../meshes/liver_2660.msh", kSource + "/configs/meshes/liver_700.msh");
+  Replace(text, "../meshes/skin_patch.msh", kSource + "/configs/meshes/skin_patch.msh");
+  for (const auto& [from, to] : edits) Replace(text, from, to);
+  const fs::path path = dir / "scenario.yaml";
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::vector<std::string> Dds(int domain, const std::string& partition) {
+  return {"--dds-config", kDdsConfig, "--domain", std::to_string(domain), "--partition", partition};
+}
+
+std::vector<std::string> Cat(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
+  const fs::path dir = TempDir("direct_run");
+  const fs::path scenario = WriteScenario(dir, {{"speed: 0.01", "speed: 0.02"}});
+  const std::string partition = "direct_run_" + std::to_string(getpid());
+  // lockstep without a controller: nothing to wait for, runs as fast as it can
+  ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
+                        (dir / "out").string(), "--no-controller", "--duration", "2", "--mode",
+                        "lockstep", "--vtk-every", "50", "--quiet"},
+                       Dds(41, partition)),
+                   (dir / "run.log").string());
+  const int code = run.Wait(60.0);
+  ASSERT_EQ(code, 0) << run.Output();
+
+  const json s = json::parse(ReadText(dir / "out/summary.json"));
+  EXPECT_EQ(s["exit"], "completed");
+  EXPECT_EQ(s["steps"], 100);
+  EXPECT_EQ(s["controller"], false);
+  EXPECT_TRUE(s["punctured"]["skin"]["punctured"].get<bool>());
+  EXPECT_TRUE(s["punctured"]["liver"]["punctured"].get<bool>());
+  EXPECT_LT(s["punctured"]["skin"]["time_s"].get<double>(),
+            s["punctured"]["liver"]["time_s"].get<double>());
+  EXPECT_GT(s["step_time_ms"]["median"].get<double>(), 0.0);
+  EXPECT_GT(s["rate_hz"].get<double>(), 0.0);
+  EXPECT_LT(s["final_tip_to_target_distance_mm"].get<double>(), 50.0);  // 65 mm at the start
+  EXPECT_EQ(s["targets"]["received"], 0);
+  EXPECT_LT(s["max_rib_penetration_mm"].get<double>(), 1e-5);
+  EXPECT_EQ(s["outputs"]["vtk_snapshots"], 2);
+  EXPECT_EQ(s["settings"]["liver_nodes"], 685);
+  EXPECT_TRUE(fs::exists(dir / "out/vtk/liver_000050.vtk"));
+  EXPECT_TRUE(fs::exists(dir / "out/view.png"));
+  // timeseries: header + frames 0..100
+  std::ifstream csv(dir / "out/timeseries.csv");
+  std::string line;
+  int lines = 0;
+  while (std::getline(csv, line)) ++lines;
+  EXPECT_EQ(lines, 102);
+}
+
+TEST(DirectRun, BadScenarioExitsWithTwoAndNamesTheKey) {
+  const fs::path dir = TempDir("direct_run_bad");
+  const fs::path scenario = WriteScenario(dir, {{"young_modulus: 5500", "young_modulus: abc"}});
+  ChildProcess run({kBin + "/direct_sim", "run", "--config", scenario.string(), "--no-controller"},
+                   (dir / "run.log").string());
+  EXPECT_EQ(run.Wait(30.0), 2);
+  EXPECT_NE(run.Output().find("patient.liver.young_modulus: expected a number, got 'abc'"),
+            std::string::npos)
+      << run.Output();
+}
+
+// a controller in this process: answers the frames with a script of good and bad targets
+TEST(DirectRun, SafetyGateCountsBadTargetsAndNoticesTheControllerLeaving) {
+  const fs::path dir = TempDir("direct_run_safety");
+  const fs::path scenario = WriteScenario(dir, {});
+  const std::string partition = "direct_safety_" + std::to_string(getpid());
+  transport::TransportConfig tc;
+  tc.domain_id = 42;
+  tc.partition = partition;
+  tc.config_file = kDdsConfig;
+  transport::Participant participant(tc);
+  transport::Reader<MarkerFrame> frames(participant, transport::Qos::kLossless);
+  transport::Reader<RobotState> states(participant, transport::Qos::kLossless);
+  auto targets =
+      std::make_unique<transport::Writer<RobotTarget>>(participant, transport::Qos::kTarget);
+
+  ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
+                        (dir / "out").string(), "--duration", "1.6", "--no-video", "--quiet"},
+                       Dds(42, partition)),
+                   (dir / "run.log").string());
+  std::vector<MarkerFrame> got;
+  std::vector<RobotState> robot;
+  Eigen::Isometry3d X_now = Eigen::Isometry3d::Identity();
+  bool have_pose = false;
+  const double end = MonotonicSeconds() + 60.0;
+  while (targets && MonotonicSeconds() < end) {
+    frames.Wait(0.05);
+    robot.clear();
+    states.Take(robot);
+    if (!robot.empty()) {
+      X_now = robot.back().X_WE;
+      have_pose = true;
+    }
+    got.clear();
+    frames.Take(got);
+    for (const MarkerFrame& f : got) {
+      if (!have_pose) continue;
+      const uint64_t k = f.stamp.seq;
+      RobotTarget t;
+      t.answers_seq = k;
+      t.X_WE = X_now;
+      if (k == 10) t.X_WE.translation().x() = std::nan("");             // dropped by the transport
+      if (k == 12) t.X_WE.translation() += Eigen::Vector3d(0.2, 0, 0);  // too fast: clamped
+      if (k == 16) t.answers_seq = 11;                                  // out of order
+      if (k == 17) t.answers_seq = 100000;                              // never published
+      if (k >= 18 && k < 45) continue;                                  // silent: the robot holds
+      if (k == 45) t.answers_seq = 18;                                  // 27 frames old: stale
+      if (k >= 50) {
+        targets.reset();  // the controller leaves
+        break;
+      }
+      targets->Write(t);
+    }
+  }
+  const int code = run.Wait(60.0);
+  EXPECT_EQ(code, 1) << run.Output();  // the controller was lost
+  const json s = json::parse(ReadText(dir / "out/summary.json"));
+  const json& t = s["targets"];
+  EXPECT_TRUE(s["controller_lost"].get<bool>()) << s.dump(2);
+  EXPECT_EQ(s["exit"], "controller_lost");
+  EXPECT_GE(t["accepted"].get<int>(), 10);
+  EXPECT_EQ(t["clamped"]["speed_clamped"], 1);
+  EXPECT_EQ(t["rejected"]["out_of_order"], 1);
+  EXPECT_EQ(t["rejected"]["unknown_frame"], 1);
+  EXPECT_EQ(t["rejected"]["stale"], 1);
+  EXPECT_EQ(t["transport_invalid"], 1);  // the NaN target
+  EXPECT_GT(t["hold_steps"].get<int>(), 10);
+  EXPECT_NE(run.Output().find("inverse_sim left"), std::string::npos) << run.Output();
+}
+
+}  // namespace
+}  // namespace nsim
