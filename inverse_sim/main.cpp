@@ -2,11 +2,13 @@
 #include "common/core/cli.h"
 #include "inverse_sim/predict_eval.h"
 #include "inverse_sim/record.h"
+#include "inverse_sim/run_command.h"
 
 int main(int argc, char** argv) {
   return nsim::RunSubcommands(
       "inverse_sim", "The inverse simulation: the controller and its tools.",
-      {{"record", "record received marker frames to CSV (--out OUT.csv)", nsim::RunRecord},
+      {{"run", "the controller in the closed loop (--config S.yaml)", nsim::RunInverseSim},
+       {"record", "record received marker frames to CSV (--out OUT.csv)", nsim::RunRecord},
        {"predict-eval", "offline evaluation of marker prediction (--markers IN.csv)",
         nsim::RunPredictEval}},
       argc, argv);

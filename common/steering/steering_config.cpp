@@ -1,0 +1,81 @@
+#include "common/steering/steering_config.h"
+
+#include <cmath>
+
+#include "common/core/error.h"
+#include "common/needle/needle_tissue.h"
+
+namespace nsim {
+namespace {
+
+void CheckPositive(double value, const std::string& key, const char* unit) {
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    throw InputError(Str(key, " must be > 0", unit, ", got ", value));
+  }
+}
+
+void CheckFinite(const Eigen::Vector3d& v, const std::string& key) {
+  if (!v.allFinite()) throw InputError(Str(key, " must be finite (m)"));
+}
+
+// rewrites "<from>..." into "<to>..." in an InputError from a nested Validate
+template <typename F>
+void Nested(F&& validate, const std::string& from, const std::string& to) {
+  try {
+    validate();
+  } catch (const InputError& e) {
+    std::string text = e.what();
+    if (text.rfind(from, 0) == 0) text = to + text.substr(from.size());
+    throw InputError(text);
+  }
+}
+
+}  // namespace
+
+SteeringDof ParseSteeringDof(const std::string& text, const std::string& key) {
+  if (text == "cartesian6") return SteeringDof::kCartesian6;
+  if (text == "joint7") return SteeringDof::kJoint7;
+  throw InputError(Str(key, " must be one of cartesian6, joint7, got '", text, "'"));
+}
+
+const char* ToString(SteeringDof dof) {
+  return dof == SteeringDof::kCartesian6 ? "cartesian6" : "joint7";
+}
+
+void InverseModelConfig::Validate() const {
+  Nested([&] { liver.Validate(); }, "fem.", "inverse.liver.");
+  CheckPositive(young_modulus_factor, "inverse.young_modulus_factor", "");
+  if (markers_W.empty()) throw InputError("inverse.markers must list >= 1 marker, got 0");
+  for (size_t i = 0; i < markers_W.size(); ++i) CheckFinite(markers_W[i], Str("inverse.markers[", i, "]"));
+  needle.Validate("inverse.needle");
+  CheckPositive(puncture_force, "inverse.puncture_force", " (N)");
+  CheckPositive(point_spacing, "inverse.point_spacing", " (m)");
+}
+
+void SteeringPathConfig::Validate() const {
+  CheckFinite(entry_W, "controller.path.entry");
+  CheckFinite(target_W, "controller.path.target");
+  if (!((target_W - entry_W).norm() > 1e-6)) {
+    throw InputError("controller.path.target must differ from controller.path.entry");
+  }
+  if (!(approach_distance >= 0.0) || !std::isfinite(approach_distance)) {
+    throw InputError(Str("controller.path.approach_distance must be >= 0 (m), got ",
+                         approach_distance));
+  }
+  CheckPositive(spacing, "controller.path.spacing", " (m)");
+  Nested([&] { switching.Validate(); }, "control.path.", "controller.path.");
+}
+
+void SteeringControlConfig::Validate() const {
+  for (int j = 0; j < 6; ++j) {
+    CheckPositive(pose_steps[j], Str("controller.pose_steps[", j, "]"), j < 3 ? " (m)" : " (rad)");
+  }
+  for (int j = 0; j < 7; ++j) {
+    CheckPositive(joint_steps[j], Str("controller.joint_steps[", j, "]"), " (rad)");
+  }
+  Nested([&] { gains.Validate(); }, "control.", "controller.");
+  Nested([&] { law.Validate(); }, "control.", "controller.");
+  Nested([&] { iiwa.Validate(); }, "iiwa.", "controller.iiwa.");
+}
+
+}  // namespace nsim

@@ -1,0 +1,102 @@
+#pragma once
+// Configuration of the inverse simulation (thesis §3.2-3.3, appendix A): the liver model the
+// controller registers to the markers, its needle, the planned path, and the control settings.
+// Plain structs with defaults, SI units, world frame W (the liver mesh frame); the inverse
+// side's scenario loader fills them from the `inverse:` and `controller:` sections.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "common/control/control_law.h"
+#include "common/control/objectives.h"
+#include "common/control/path_targets.h"
+#include "common/fem/fem_config.h"
+#include "common/needle/rigid_needle.h"
+#include "common/robot/iiwa14.h"
+#include "common/robot/pose_math.h"
+
+namespace nsim {
+
+/// Which degrees of freedom the Jacobian is taken over (thesis eq. 3.6 vs A.2).
+enum class SteeringDof {
+  kCartesian6,  ///< 12 pose perturbations of the flange, Cartesian targets (eq. 3.6, 3.9)
+  kJoint7,      ///< 14 joint perturbations of the iiwa, joint targets (eq. A.2, A.3)
+};
+/// "cartesian6" / "joint7"; InputError naming `key` otherwise.
+SteeringDof ParseSteeringDof(const std::string& text, const std::string& key);
+const char* ToString(SteeringDof dof);
+
+/// The liver model of the inverse simulation: its own mesh and material, registered to the
+/// fiducial markers by bilateral constraints, with a rigid needle inside.
+struct InverseModelConfig {
+  /// Material, damping and solver of the inverse liver. young_modulus is the nominal (believed)
+  /// value; the model uses young_modulus * young_modulus_factor.
+  FemConfig liver = [] {
+    FemConfig c;
+    c.gravity = Eigen::Vector3d::Zero();
+    c.rayleigh_mass = 0.1;
+    c.rayleigh_stiffness = 0.01;
+    return c;
+  }();
+  /// Factor on the nominal Young's modulus (-), > 0: the model's stiffness error (thesis §5.1
+  /// setup; Baksic: +-13 %).
+  double young_modulus_factor = 1.0;
+  /// Rest positions of the fiducial markers in the liver (m), >= 1, each inside the mesh.
+  std::vector<Eigen::Vector3d> markers_W;
+  /// The rigid needle on the flange (geometry, tool offset).
+  NeedleConfig needle;
+  /// Liver puncture: axial contact force (N), > 0.
+  double puncture_force = 0.3;
+  /// Spacing of the trajectory constraint points along the needle path in the liver (m), > 0.
+  double point_spacing = 0.013;
+  /// Lateral tip constraint in the liver (common/needle, needle_tissue.h).
+  bool tip_constraint = true;
+
+  /// Throws InputError "inverse.<key> must be ..., got ..." for the first invalid field.
+  void Validate() const;
+};
+
+/// The planned insertion: a straight line from a start point before the entry to the target.
+struct SteeringPathConfig {
+  Eigen::Vector3d entry_W = Eigen::Vector3d::Zero();   ///< planned skin entry (m)
+  Eigen::Vector3d target_W = Eigen::Vector3d::Zero();  ///< target at rest, inside the liver (m)
+  double approach_distance = 0.01;  ///< the tip starts this far before the entry (m), >= 0
+  double spacing = 0.01;            ///< distance between consecutive path targets (m), > 0
+  PathTargetConfig switching;       ///< when the tip counts as at a path point
+
+  /// Throws InputError "controller.path.<key> ...".
+  void Validate() const;
+};
+
+/// Jacobian, inverse and law settings.
+struct SteeringControlConfig {
+  SteeringDof dof = SteeringDof::kCartesian6;
+  /// Perturbation steps of eq. 3.6: [translation (m) x 3, rotation (rad) x 3], each > 0.
+  Vector6d pose_steps = (Vector6d() << 1e-3, 1e-3, 1e-3, 5e-3, 5e-3, 5e-3).finished();
+  /// Perturbation steps of eq. A.2 per joint (rad), each > 0.
+  Vector7d joint_steps = Vector7d::Constant(2e-3);
+  ObjectiveGains gains;  ///< k of eq. 3.9 / A.3
+  /// r of eq. 3.7-3.8, step caps, frame of the pose increments. r = 1e-4 (units of J^T J: m^2
+  /// per m^2 or per rad^2): in the liver the needle drags the tissue laterally, so the lateral
+  /// columns of e_p have singular values of a few 1e-3; their exact inverse (r = 1e-6) turns
+  /// millimetre errors into 0.25 rad joint steps and the joint loop oscillates, r = 1e-3 damps
+  /// them so much that a 1 mm lateral error stays (measured on liver_700, static liver:
+  /// final errors 0.012 mm Cartesian and 0.016-0.028 mm joint with r = 1e-4).
+  ControlLawConfig law = [] {
+    ControlLawConfig c;
+    c.regularization = 1e-4;
+    return c;
+  }();
+
+  /// Include e_e (eq. 3.5) in phase 3 even when the skin entry is unknown, using the liver
+  /// entry point (scenes without a skin).
+  bool liver_entry_objective = true;
+  /// The iiwa (base pose, limits) for kJoint7.
+  Iiwa14Config iiwa;
+
+  /// Throws InputError "controller.<key> ...".
+  void Validate() const;
+};
+
+}  // namespace nsim

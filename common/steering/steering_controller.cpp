@@ -1,0 +1,152 @@
+#include "common/steering/steering_controller.h"
+
+#include <chrono>
+
+#include "common/control/control_law.h"
+#include "common/control/finite_difference_jacobian.h"
+#include "common/core/error.h"
+
+namespace nsim {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
+  return std::chrono::duration<double>(b - a).count();
+}
+
+}  // namespace
+
+Iiwa14Config MakeFlangeIiwaConfig(const Iiwa14Config& iiwa) {
+  Iiwa14Config c = iiwa;
+  c.X_FT = Eigen::Isometry3d::Identity();
+  return c;
+}
+
+SteeringController::SteeringController(const InverseModelConfig& model,
+                                       const SteeringPathConfig& path,
+                                       const SteeringControlConfig& control, const TetMesh& mesh,
+                                       const Eigen::Isometry3d& X_WE0)
+    : control_((control.Validate(), control)), iiwa_(MakeFlangeIiwaConfig(control.iiwa)) {
+  sim_ = std::make_unique<SteeringSimulation>(model, path, mesh, X_WE0);
+  X_WN_step_ = sim_->X_WN();
+  switch_distance_ = path.switching.switch_distance;
+}
+
+SteeringController::~SteeringController() = default;
+
+Eigen::Isometry3d SteeringController::CalcFlangePose(const Vector7d& q) const {
+  return iiwa_.CalcToolPose(q);
+}
+
+Eigen::VectorXd SteeringController::EvaluateObjectives(const Eigen::Isometry3d& X_WF,
+                                                       InsertionPhase phase) const {
+  const SteeringEvaluation eval = sim_->EvaluateAt(X_WF, workspace_);
+  ObjectiveValues values;
+  values.e_p = CalcPositionObjective(eval.p_WPath[path_index_], eval.p_WTip);
+  values.e_a = CalcAngleObjective(eval.X_WN.linear().col(2), sim_->path_direction());
+  if (entry_known_) {
+    // the entry point stays on the needle: it moves rigidly with the perturbed needle
+    const Eigen::Vector3d p_WC = eval.X_WN * (X_WN_step_.inverse() * p_WC_);
+    values.e_e = CalcEntryObjective(entry_plane_, p_WC);
+  }
+  Eigen::VectorXd e;
+  AssembleObjectiveVector(phase, values, &e);
+  return e;
+}
+
+SteeringOutput SteeringController::Update(const SteeringInput& input) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  SteeringOutput out;
+  Eigen::Isometry3d X_WF = input.X_WE;
+  if (control_.dof == SteeringDof::kJoint7) {
+    if (!input.q.allFinite()) throw InputError("steering input: joint angles must be finite");
+    X_WF = CalcFlangePose(input.q);
+  }
+  out.model = sim_->Step(input.p_WM, X_WF);
+  X_WN_step_ = sim_->X_WN();
+  const auto t1 = Clock::now();
+
+  // entry point of e_e (eq. 3.5): the measured skin entry, else the liver's own
+  if (input.entry.punctured) {
+    if (!input.entry.p_WP.allFinite() || !input.entry.n_W.allFinite()) {
+      throw InputError("steering input: entry point must be finite");
+    }
+    if (!entry_known_) entry_plane_ = MakeSkinPlane(input.entry.p_WP, input.entry.n_W);
+    entry_known_ = true;
+    p_WC_ = input.entry.p_WP;
+  } else if (control_.liver_entry_objective) {
+    Eigen::Vector3d p;
+    if (sim_->CalcLiverEntryPoint(&p)) {
+      if (!entry_known_) entry_plane_ = MakeSkinPlane(p, -sim_->path_direction());
+      entry_known_ = true;
+      p_WC_ = p;
+    }
+  }
+  out.phase = DetermineInsertionPhase(input.entry.punctured, sim_->liver_punctured());
+  if (out.phase == InsertionPhase::kInLiver && !entry_known_) {
+    // no entry point known (no skin, liver entry objective off): e_e rows are zero
+    entry_plane_ = MakeSkinPlane(sim_->X_WN().translation(), -sim_->path_direction());
+  }
+
+  // advance the path target with the model's tip
+  {
+    const SteeringEvaluation now = sim_->EvaluateAt(X_WF, workspace_);
+    const int last = static_cast<int>(now.p_WPath.size()) - 1;
+    while (path_index_ < last && (now.p_WPath[path_index_] - now.p_WTip).norm() <=
+                                     switch_distance_) {
+      ++path_index_;
+    }
+  }
+  out.path_index = path_index_;
+  out.reached_end = path_index_ == static_cast<int>(sim_->path().size()) - 1;
+
+  // Jacobian by central differences (eq. 3.6 / A.2)
+  const auto t2 = Clock::now();
+  const int n = control_.dof == SteeringDof::kCartesian6 ? 6 : 7;
+  std::vector<Eigen::VectorXd> samples;
+  samples.reserve(2 * n);
+  Eigen::VectorXd steps(n);
+  if (control_.dof == SteeringDof::kCartesian6) {
+    steps = control_.pose_steps;
+    for (const Eigen::Isometry3d& X : MakePosePerturbations(X_WF, control_.pose_steps, control_.law.frame))
+      samples.push_back(EvaluateObjectives(X, out.phase));
+  } else {
+    steps = control_.joint_steps;
+    for (const Vector7d& q : MakeJointPerturbations(input.q, control_.joint_steps))
+      samples.push_back(EvaluateObjectives(CalcFlangePose(q), out.phase));
+  }
+  out.num_perturbations = static_cast<int>(samples.size());
+  const FiniteDifferenceStatus status = AssembleCentralDifferenceJacobian(samples, steps, &out.J);
+  out.e = EvaluateObjectives(X_WF, out.phase);
+  const auto t3 = Clock::now();
+
+  // nominal state for reports
+  const SteeringEvaluation nominal = sim_->EvaluateAt(X_WF, workspace_);
+  out.p_WTip = nominal.p_WTip;
+  out.p_WTarget = nominal.p_WPath[path_index_];
+  out.p_WFinal = nominal.p_WPath.back();
+
+  Eigen::VectorXd k;
+  AssembleGainVector(out.phase, control_.gains, &k);
+  if (control_.dof == SteeringDof::kCartesian6) {
+    const CartesianControlOutput law = CalcCartesianTarget(X_WF, out.J, out.e, k, control_.law);
+    out.valid = law.valid && status.all_finite;
+    out.X_WE_target = out.valid ? law.X_WE_target : X_WF;
+    out.step_limited = law.step_limited;
+    out.q_target = input.q;
+  } else {
+    const JointControlOutput law = CalcJointTarget(input.q, out.J, out.e, k, control_.law);
+    out.valid = law.valid && status.all_finite;
+    out.q_target = out.valid ? iiwa_.ClampToLimits(law.q_target) : input.q;
+    out.step_limited = law.step_limited;
+    out.X_WE_target = CalcFlangePose(out.q_target);
+  }
+  const auto t4 = Clock::now();
+  out.timings.simulation = Seconds(t0, t1);
+  out.timings.jacobian = Seconds(t2, t3);
+  out.timings.control = Seconds(t3, t4);
+  out.timings.total = Seconds(t0, t4);
+  return out;
+}
+
+}  // namespace nsim

@@ -1,0 +1,105 @@
+#pragma once
+// The inverse-simulation controller (thesis §3.3, appendix A): one control step
+//   1. steps the registered liver model (SteeringSimulation) with the markers and the measured
+//      flange pose;
+//   2. picks the insertion phase (fig. 3.3) and the active objectives e_p, e_a, e_e
+//      (eq. 3.3-3.5) and advances the path target;
+//   3. the Jacobian by central differences over 12 flange-pose perturbations (eq. 3.6) or 14
+//      iiwa joint perturbations (eq. A.2), each a constraint-space solve of the frozen step;
+//   4. the Tikhonov inverse (eq. 3.7-3.8) and the gain law (eq. 3.9 / A.3) give the target.
+//
+// e_e in the model: the skin is not simulated here (thesis fig. 3.2: the entry point is
+// measured). The stored puncture point p_p and plane come from the first punctured EntryPoint;
+// the current point p_c is the measured one, and under a perturbation it moves rigidly with the
+// needle (the skin point stays on the needle), which makes e_e controllable. In a scene without
+// skin, the liver entry point plays that role (config.liver_entry_objective).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+#include <vector>
+
+#include "common/control/objectives.h"
+#include "common/core/samples.h"
+#include "common/mesh/tet_mesh.h"
+#include "common/robot/iiwa14.h"
+#include "common/steering/steering_config.h"
+#include "common/steering/steering_simulation.h"
+
+namespace nsim {
+
+/// Inputs of one control step.
+struct SteeringInput {
+  std::vector<Eigen::Vector3d> p_WM;  ///< marker positions to register to (m): measured or predicted
+  Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< measured flange pose
+  Vector7d q = Vector7d::Zero();  ///< measured joints (rad), used with SteeringDof::kJoint7
+  EntryPoint entry;               ///< the localized skin entry point (punctured = false: none)
+};
+
+/// Wall-clock cost of one control step (s).
+struct SteeringTimings {
+  double simulation = 0.0;  ///< model step (free motion, registration, needle, commit)
+  double jacobian = 0.0;    ///< 12 or 14 perturbation solves + assembly
+  double control = 0.0;     ///< Tikhonov inverse and law
+  double total = 0.0;
+};
+
+/// Result of one control step.
+struct SteeringOutput {
+  bool valid = false;  ///< false: non-finite objectives or Jacobian; hold the robot
+  InsertionPhase phase = InsertionPhase::kBeforeSkin;
+  int path_index = 0;          ///< current path target
+  bool reached_end = false;    ///< the last path target is the current one
+  Eigen::VectorXd e;           ///< objectives of the phase (eq. 3.3-3.5 stacked)
+  Eigen::MatrixXd J;           ///< rows x 6 or rows x 7
+  Eigen::Isometry3d X_WE_target = Eigen::Isometry3d::Identity();  ///< eq. 3.9 (kCartesian6)
+  Vector7d q_target = Vector7d::Zero();                           ///< eq. A.3 (kJoint7)
+  bool step_limited = false;
+  Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();     ///< model tip (m)
+  Eigen::Vector3d p_WTarget = Eigen::Vector3d::Zero();  ///< model's current path target (m)
+  Eigen::Vector3d p_WFinal = Eigen::Vector3d::Zero();   ///< model's final target (m)
+  int num_perturbations = 0;
+  SteeringStepReport model;
+  SteeringTimings timings;
+};
+
+class SteeringController {
+ public:
+  /// Validates the configs (InputError) and builds the model with the needle at X_WE0.
+  SteeringController(const InverseModelConfig& model, const SteeringPathConfig& path,
+                     const SteeringControlConfig& control, const TetMesh& mesh,
+                     const Eigen::Isometry3d& X_WE0);
+  ~SteeringController();
+
+  /// One control step (see the file comment). InputError on malformed input (marker count,
+  /// non-finite values).
+  SteeringOutput Update(const SteeringInput& input);
+
+  /// The objective vector of `phase` at flange pose X_WF for the current step (no side
+  /// effects): the function the Jacobian differentiates.
+  Eigen::VectorXd EvaluateObjectives(const Eigen::Isometry3d& X_WF, InsertionPhase phase) const;
+
+  /// Flange pose of the iiwa at q (X_WB X_BF(q)).
+  Eigen::Isometry3d CalcFlangePose(const Vector7d& q) const;
+
+  const SteeringSimulation& simulation() const { return *sim_; }
+  const SteeringControlConfig& config() const { return control_; }
+  const Iiwa14Model& iiwa() const { return iiwa_; }
+
+ private:
+  SteeringControlConfig control_;
+  Iiwa14Model iiwa_;
+  std::unique_ptr<SteeringSimulation> sim_;
+  int path_index_ = 0;
+  double switch_distance_ = 0.0;  // (m)
+  bool entry_known_ = false;
+  SkinPlane entry_plane_;
+  Eigen::Vector3d p_WC_ = Eigen::Vector3d::Zero();  // current entry point (m)
+  Eigen::Isometry3d X_WN_step_ = Eigen::Isometry3d::Identity();
+  mutable SnapshotWorkspace workspace_;
+};
+
+/// The iiwa model used by the controller: control.iiwa with the tool at the flange.
+Iiwa14Config MakeFlangeIiwaConfig(const Iiwa14Config& iiwa);
+
+}  // namespace nsim

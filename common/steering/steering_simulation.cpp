@@ -1,0 +1,218 @@
+#include "common/steering/steering_simulation.h"
+
+#include <cmath>
+#include <optional>
+
+#include "common/core/error.h"
+#include "common/mesh/point_locator.h"
+
+namespace nsim {
+namespace {
+
+// keys of the marker points in the compliance cache: far above the coupling's keys (from 1)
+constexpr std::uint64_t kMarkerKeyBase = std::uint64_t{1} << 62;
+
+SnapshotProbe MakeProbe(const TetMesh& mesh, const TetPoint& point) {
+  SnapshotProbe probe;
+  for (int k = 0; k < 4; ++k) {
+    probe.nodes.push_back(mesh.tets[point.tet][k]);
+    probe.weights.push_back(point.bary[k]);
+  }
+  return probe;
+}
+
+// rotation whose z axis is `z` (unit); x is the world x axis made orthogonal (y if too close)
+Eigen::Matrix3d FrameWithZ(const Eigen::Vector3d& z) {
+  Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  if (std::abs(z.dot(x)) > 0.9) x = Eigen::Vector3d::UnitY();
+  x = (x - z * z.dot(x)).normalized();
+  Eigen::Matrix3d R;
+  R.col(0) = x;
+  R.col(1) = z.cross(x);
+  R.col(2) = z;
+  return R;
+}
+
+}  // namespace
+
+SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
+                                       const SteeringPathConfig& path, const TetMesh& mesh,
+                                       const Eigen::Isometry3d& X_WF)
+    : config_(config), mesh_(mesh), needle_((config.Validate(), config.needle)) {
+  path.Validate();
+  if (!IsRigidTransform(X_WF, 1e-6)) {
+    throw InputError("inverse simulation: the initial flange pose must be a finite rigid transform");
+  }
+  FemConfig fem = config.liver;
+  fem.young_modulus = config.liver.young_modulus * config.young_modulus_factor;
+  model_ = std::make_unique<FemModel>(mesh_, fem);
+  solver_ = std::make_unique<FemSolver>(*model_);
+  state_ = std::make_unique<FemState>(*model_);
+  body_ = std::make_unique<FemConstraintBody>(*solver_, *state_);
+
+  // the needle-liver coupling, frictionless (see the file comment of steering_simulation.h)
+  NeedleCouplingConfig coupling;
+  TissueCouplingConfig liver;
+  liver.name = "liver";
+  liver.puncture_force = config.puncture_force;
+  liver.friction_coefficient = 0.0;
+  liver.friction_force_per_length = 0.0;
+  liver.point_spacing = config.point_spacing;
+  liver.tip_constraint = config.tip_constraint;
+  coupling.tissues = {liver};
+  coupling_ = std::make_unique<NeedleTissueCoupling>(coupling, std::vector<const TetMesh*>{&mesh_});
+  coupling_state_ = coupling_->MakeState();
+  ResetRigidNeedle(needle_, X_WF, needle_state_);
+
+  // markers and path targets as material points of the rest mesh
+  const TetLocator locator(mesh_);
+  for (size_t m = 0; m < config.markers_W.size(); ++m) {
+    const std::optional<TetPoint> found = locator.Locate(config.markers_W[m]);
+    if (!found) {
+      throw InputError(Str("inverse.markers[", m, "] (", config.markers_W[m].transpose(),
+                           ") is outside the inverse liver mesh"));
+    }
+    markers_.push_back(*found);
+    marker_positions_.push_back(config.markers_W[m]);
+  }
+  if (!locator.Locate(path.target_W)) {
+    throw InputError("controller.path.target is outside the inverse liver mesh");
+  }
+  direction_ = (path.target_W - path.entry_W).normalized();
+  const Eigen::Vector3d start = path.entry_W - path.approach_distance * direction_;
+  const double travel = (path.target_W - start).norm();
+  const int n = std::max(1, static_cast<int>(std::ceil(travel / path.spacing - 1e-9)));
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::optional<TetPoint>> located;
+  int first_inside = -1;
+  for (int k = 1; k <= n; ++k) {
+    points.push_back(start + (travel * k / n) * direction_);
+    located.push_back(locator.Locate(points.back()));
+    if (located.back() && first_inside < 0) first_inside = k - 1;
+  }
+  int last_reference = first_inside;
+  for (int k = 0; k < n; ++k) {
+    PathPoint p;
+    if (located[k]) {
+      p.reference = *located[k];
+      path_probe_.push_back(static_cast<int>(probes_.size()));
+      probes_.push_back(MakeProbe(mesh_, p.reference));
+      last_reference = k;
+    } else {
+      const int r = k < first_inside ? first_inside : last_reference;
+      p.reference = *located[r];
+      p.offset = points[k] - points[r];
+      path_probe_.push_back(-1 - r);  // resolved below
+    }
+    path_.push_back(p);
+  }
+  // outside points share the probe of their reference
+  for (int k = 0; k < n; ++k) {
+    if (path_probe_[k] < 0) {
+      const int r = -1 - path_probe_[k];
+      int probe = 0;
+      for (int j = 0; j < r; ++j) probe += located[j] ? 1 : 0;
+      path_probe_[k] = probe;
+    }
+  }
+}
+
+SteeringSimulation::~SteeringSimulation() = default;
+
+Eigen::Isometry3d SteeringSimulation::CalcStartFlangePose(const NeedleConfig& needle,
+                                                         const SteeringPathConfig& path) {
+  const Eigen::Vector3d z = (path.target_W - path.entry_W).normalized();
+  const Eigen::Vector3d tip = path.entry_W - path.approach_distance * z;
+  Eigen::Isometry3d X_WN = Eigen::Isometry3d::Identity();
+  X_WN.linear() = FrameWithZ(z);
+  X_WN.translation() = tip - needle.length * z;
+  return X_WN * CalcToolOffset(needle).inverse();
+}
+
+SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& p_WM,
+                                            const Eigen::Isometry3d& X_WF) {
+  if (p_WM.size() != markers_.size()) {
+    throw InputError(Str("inverse simulation: expected ", markers_.size(), " markers, got ",
+                         p_WM.size()));
+  }
+  for (const Eigen::Vector3d& p : p_WM) {
+    if (!p.allFinite()) throw InputError("inverse simulation: a marker position is not finite");
+  }
+  if (!IsRigidTransform(X_WF, 1e-6)) {
+    throw InputError("inverse simulation: the flange pose must be a finite rigid transform");
+  }
+  SteeringStepReport report;
+  SetRigidNeedleTarget(needle_, X_WF, needle_state_);
+  report.fem = body_->BeginStep();
+
+  // registration: each marker material point reaches its measured position (3 bilateral rows)
+  set_.Clear();
+  const int b = set_.AddBody(*body_);
+  for (size_t m = 0; m < markers_.size(); ++m) {
+    const int pt = set_.AddBodyPoint(b, mesh_.tets[markers_[m].tet], markers_[m].bary,
+                                     kMarkerKeyBase + m);
+    const int kp = set_.AddKinematicPoint(marker_positions_[m], p_WM[m]);
+    set_.AddBilateral(pt, kp, Eigen::Matrix3d::Identity());
+  }
+  const int first_needle_point = set_.num_points();
+  const NeedleView view = MakeNeedleView(needle_, needle_state_);
+  coupling_->AddConstraints(view, {b}, set_, coupling_state_);
+
+  constraint_solver_.Assemble(set_);
+  report.solve = constraint_solver_.SolveMultipliers(set_);
+  std::vector<char> moves(set_.num_points(), 0);
+  for (int p = first_needle_point; p < set_.num_points(); ++p) moves[p] = set_.point(p).body < 0;
+  snapshot_.Capture(set_, constraint_solver_, b, moves, needle_state_.X_WN_end, probes_);
+  has_snapshot_ = true;
+  constraint_solver_.ApplyCorrections(set_);
+  body_->EndStep();
+
+  coupling_->Update(view, {&state_->x}, constraint_solver_.lambda(), state_->time, coupling_state_);
+  AdvanceRigidNeedle(needle_state_);
+  marker_positions_ = p_WM;
+  ++steps_;
+  report.time = state_->time;
+  report.num_rows = set_.num_rows();
+  report.liver_phase = coupling_state_.tissues[0].phase;
+  return report;
+}
+
+SteeringEvaluation SteeringSimulation::EvaluateAt(const Eigen::Isometry3d& X_WF,
+                                                  SnapshotWorkspace& workspace) const {
+  SteeringEvaluation out;
+  out.X_WN = needle_.CalcNeedlePose(X_WF);
+  out.p_WTip = CalcTipPosition(out.X_WN, needle_.length());
+  std::vector<Eigen::Vector3d> probes;
+  if (has_snapshot_) {
+    out.solve = snapshot_.Solve(out.X_WN, workspace, &probes);
+  } else {
+    for (const SnapshotProbe& probe : probes_) {
+      Eigen::Vector3d p = Eigen::Vector3d::Zero();
+      for (size_t k = 0; k < probe.nodes.size(); ++k) p += probe.weights[k] * state_->x.col(probe.nodes[k]);
+      probes.push_back(p);
+    }
+  }
+  out.p_WPath.resize(path_.size());
+  for (size_t i = 0; i < path_.size(); ++i) out.p_WPath[i] = probes[path_probe_[i]] + path_[i].offset;
+  return out;
+}
+
+std::vector<Eigen::Vector3d> SteeringSimulation::CalcPathPositions() const {
+  std::vector<Eigen::Vector3d> out;
+  for (const PathPoint& p : path_) out.push_back(EvalTetPoint(mesh_, state_->x, p.reference) + p.offset);
+  return out;
+}
+
+bool SteeringSimulation::liver_punctured() const {
+  const TissuePhase phase = coupling_state_.tissues[0].phase;
+  return phase == TissuePhase::kInside || phase == TissuePhase::kExited;
+}
+
+bool SteeringSimulation::CalcLiverEntryPoint(Eigen::Vector3d* p_W) const {
+  const TissueCouplingState& ts = coupling_state_.tissues[0];
+  if (!liver_punctured() || ts.points.empty()) return false;
+  *p_W = EvalTetPoint(mesh_, state_->x, ts.points.front().point);
+  return true;
+}
+
+}  // namespace nsim

@@ -1,0 +1,128 @@
+#pragma once
+// The inverse simulation's liver model (thesis §3.2, fig. 3.2): a co-rotational FEM liver with
+// its own mesh and Young's modulus, registered to the measured (or predicted) fiducial markers
+// by bilateral constraints (marker material point == marker position, 3 rows each), a rigid
+// needle placed at the measured flange pose with its own insertion state in the liver
+// (common/needle: contact, puncture, entry / trajectory / tip points; frictionless, so every
+// row is bilateral or a contact), and the planned path's targets as liver material points.
+//
+// Each Step is one implicit step: markers and needle move to their new positions over the step,
+// free motion, constraint solve, commit. Before committing, the step's constraint problem is
+// frozen in a ConstraintSnapshot, so that EvaluateAt(X_WF') answers "where would the needle
+// tip, the path targets and the entry point be at the end of this step had the flange been at
+// X_WF'" by a constraint-space solve only, without touching the state (thesis eq. 3.6 / A.2;
+// DESIGN.md "Speed"). EvaluateAt(X_WF) reproduces the committed step.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+#include <vector>
+
+#include "common/constraints/constraint_set.h"
+#include "common/constraints/constraint_solver.h"
+#include "common/constraints/fem_body.h"
+#include "common/fem/fem_model.h"
+#include "common/fem/fem_solver.h"
+#include "common/fem/fem_state.h"
+#include "common/mesh/tet_mesh.h"
+#include "common/mesh/tet_point.h"
+#include "common/needle/needle_tissue.h"
+#include "common/needle/rigid_needle.h"
+#include "common/steering/constraint_snapshot.h"
+#include "common/steering/steering_config.h"
+
+namespace nsim {
+
+/// A path target as a liver material point plus a rest offset (for path points outside the
+/// liver: they follow the first path point inside it).
+struct PathPoint {
+  TetPoint reference;  ///< liver material point
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< p = x(reference) + offset (m)
+};
+
+/// What the model predicts at the end of the current step for one flange pose.
+struct SteeringEvaluation {
+  Eigen::Isometry3d X_WN = Eigen::Isometry3d::Identity();  ///< needle pose (base frame N)
+  Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();        ///< needle tip (m)
+  std::vector<Eigen::Vector3d> p_WPath;                    ///< every path target (m)
+  SnapshotSolveReport solve;
+};
+
+/// What one Step did.
+struct SteeringStepReport {
+  double time = 0.0;  ///< model time at the end of the step (s)
+  FemStepStats fem;
+  ConstraintSolveReport solve;
+  int num_rows = 0;
+  TissuePhase liver_phase = TissuePhase::kOutside;
+};
+
+class SteeringSimulation {
+ public:
+  /// Builds the model (InputError: bad config, a marker or the target outside the mesh).
+  /// The needle starts at the flange pose X_WF, outside the liver.
+  SteeringSimulation(const InverseModelConfig& config, const SteeringPathConfig& path,
+                     const TetMesh& mesh, const Eigen::Isometry3d& X_WF);
+  ~SteeringSimulation();
+  SteeringSimulation(const SteeringSimulation&) = delete;
+  SteeringSimulation& operator=(const SteeringSimulation&) = delete;
+
+  /// One step: the markers reach p_WM (m, one per configured marker) and the flange X_WF at
+  /// the end of the step. InputError on a wrong marker count or non-finite input.
+  SteeringStepReport Step(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF);
+
+  /// The end of the last step re-solved with the flange at X_WF (constraint-space solve on the
+  /// frozen step; no side effects). Before the first Step: kinematic only (rest tissue).
+  SteeringEvaluation EvaluateAt(const Eigen::Isometry3d& X_WF, SnapshotWorkspace& workspace) const;
+
+  /// Flange pose that puts the tip at the path's start, the needle along the path.
+  static Eigen::Isometry3d CalcStartFlangePose(const NeedleConfig& needle,
+                                               const SteeringPathConfig& path);
+
+  const std::vector<PathPoint>& path() const { return path_; }
+  /// Unit planned direction (entry -> target), n_traj of eq. 3.4.
+  const Eigen::Vector3d& path_direction() const { return direction_; }
+  /// Current positions of the path targets (m).
+  std::vector<Eigen::Vector3d> CalcPathPositions() const;
+  /// Current liver positions (m), 3 x #nodes.
+  const Eigen::Matrix3Xd& liver_positions() const { return state_->x; }
+  const FemModel& liver_model() const { return *model_; }
+  /// Markers as liver material points.
+  const std::vector<TetPoint>& markers() const { return markers_; }
+  /// The needle pose at the end of the last step.
+  const Eigen::Isometry3d& X_WN() const { return needle_state_.X_WN_end; }
+  const RigidNeedleModel& needle() const { return needle_; }
+  /// Liver coupling state (phase, points) after the last step.
+  const TissueCouplingState& liver_coupling() const { return coupling_state_.tissues[0]; }
+  bool liver_punctured() const;
+  /// Current position of the liver entry point (first path point of the coupling); false
+  /// before the liver is punctured.
+  bool CalcLiverEntryPoint(Eigen::Vector3d* p_W) const;
+  double time() const { return state_->time; }
+  int64_t steps() const { return steps_; }
+
+ private:
+  InverseModelConfig config_;
+  TetMesh mesh_;
+  std::unique_ptr<FemModel> model_;
+  std::unique_ptr<FemSolver> solver_;
+  std::unique_ptr<FemState> state_;
+  std::unique_ptr<FemConstraintBody> body_;
+  RigidNeedleModel needle_;
+  RigidNeedleState needle_state_;
+  std::unique_ptr<NeedleTissueCoupling> coupling_;
+  NeedleCouplingState coupling_state_;
+  std::vector<TetPoint> markers_;
+  std::vector<Eigen::Vector3d> marker_positions_;  // measured at the last step end (m)
+  std::vector<PathPoint> path_;
+  std::vector<SnapshotProbe> probes_;  // one per distinct path reference, path_probe_[i]
+  std::vector<int> path_probe_;
+  Eigen::Vector3d direction_ = Eigen::Vector3d::UnitZ();
+  ConstraintSet set_;
+  ConstraintSolver constraint_solver_;
+  ConstraintSnapshot snapshot_;
+  bool has_snapshot_ = false;
+  int64_t steps_ = 0;
+};
+
+}  // namespace nsim

@@ -1,0 +1,90 @@
+// Cost of one control step of the inverse simulation (DESIGN.md "Speed"): the 2660-node liver
+// registered to 5 markers with the rigid needle ~3 cm inside it, compared with one plain model
+// step (the same simulation step without the Jacobian). Target: control step <= 1.5x plain step.
+// Run single-threaded: OPENBLAS_NUM_THREADS=1 steering_bench --benchmark_repetitions=5
+// --benchmark_report_aggregates_only=true
+
+#include <benchmark/benchmark.h>
+
+#include <memory>
+
+#include "common/robot/iiwa14_ik.h"
+#include "common/steering/steering_controller.h"
+#include "tests/steering/steering_test_scene.h"
+
+namespace nsim {
+namespace {
+
+constexpr int kInsertionSteps = 25;  // 2 mm a step: ~3 cm into the liver
+constexpr double kAdvance = 0.002;   // m
+
+struct Setup {
+  TetMesh mesh = steering_test::LoadLiver("liver_2660");
+  InverseModelConfig model = [] {
+    InverseModelConfig c = steering_test::MakeModelConfig();
+    c.liver.linear_solver = FemLinearSolver::kPcgCachedFactor;
+    return c;
+  }();
+  SteeringPathConfig path = steering_test::MakePathConfig();
+  Eigen::Isometry3d X_WF0 = SteeringSimulation::CalcStartFlangePose(model.needle, path);
+  Eigen::Vector3d dir = (path.target_W - path.entry_W).normalized();
+
+  Eigen::Isometry3d Pose(int step) const {
+    Eigen::Isometry3d X = X_WF0;
+    X.translation() += kAdvance * step * dir;
+    return X;
+  }
+};
+
+void BM_PlainStep(benchmark::State& state) {
+  Setup s;
+  SteeringSimulation sim(s.model, s.path, s.mesh, s.X_WF0);
+  for (int i = 1; i <= kInsertionSteps; ++i) sim.Step(s.model.markers_W, s.Pose(i));
+  const Eigen::Isometry3d X = s.Pose(kInsertionSteps);
+  for (auto _ : state) sim.Step(s.model.markers_W, X);
+  state.counters["rows"] = sim.liver_coupling().points.size();
+}
+
+void RunControlStep(benchmark::State& state, SteeringDof dof) {
+  Setup s;
+  SteeringControlConfig control;
+  control.dof = dof;
+  control.iiwa.X_WB.translation() = Eigen::Vector3d(0.0, 0.75, -0.3);
+  SteeringController controller(s.model, s.path, control, s.mesh, s.X_WF0);
+  SteeringInput input;
+  input.p_WM = s.model.markers_W;
+  const Iiwa14InverseKinematics ik(controller.iiwa(), Iiwa14IkConfig());
+  Vector7d q = controller.iiwa().CalcMidRange();
+  for (int i = 1; i <= kInsertionSteps; ++i) {
+    input.X_WE = s.Pose(i);
+    if (dof == SteeringDof::kJoint7) {
+      // the joints of the insertion pose (the model follows the flange pose they give)
+      q = ik.Solve(input.X_WE, q).q;
+      input.q = q;
+    }
+    controller.Update(input);
+  }
+  double jacobian = 0.0, simulation = 0.0;
+  int rows = 0;
+  for (auto _ : state) {
+    const SteeringOutput out = controller.Update(input);
+    jacobian += out.timings.jacobian;
+    simulation += out.timings.simulation;
+    rows = out.model.num_rows;
+  }
+  state.counters["jacobian_ms"] = 1e3 * jacobian / state.iterations();
+  state.counters["model_step_ms"] = 1e3 * simulation / state.iterations();
+  state.counters["rows"] = rows;
+}
+
+void BM_ControlStep12(benchmark::State& state) { RunControlStep(state, SteeringDof::kCartesian6); }
+void BM_ControlStep14(benchmark::State& state) { RunControlStep(state, SteeringDof::kJoint7); }
+
+BENCHMARK(BM_PlainStep)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ControlStep12)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ControlStep14)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+}  // namespace
+}  // namespace nsim
+
+BENCHMARK_MAIN();

@@ -1,0 +1,132 @@
+// The controller: the perturbation Jacobian against the analytic matrix of the kinematic case,
+// and closed-loop insertions in a static liver (the plant is a second model instance with a
+// different Young's modulus), Cartesian 6-DoF and iiwa joint 7-DoF.
+
+#include "common/steering/steering_controller.h"
+
+#include <gtest/gtest.h>
+
+#include "common/control/finite_difference_jacobian.h"
+#include "common/robot/iiwa14_ik.h"
+#include "tests/steering/steering_test_scene.h"
+
+namespace nsim {
+namespace {
+
+using steering_test::LoadLiver;
+using steering_test::MakeModelConfig;
+using steering_test::MakePathConfig;
+
+// Phase 1, needle outside the tissue: the tissue does not feel the perturbations, so e_p and e_a
+// are kinematic and their Jacobian is known in closed form (world-aligned increments about E):
+//   de_p/dp = -I,  de_p/dtheta = [r]x (r = p_tip - p_E),
+//   de_a/dp = 0,   de_a/dtheta = -(z x n)^T / sin(e_a)  (z needle axis, n path direction).
+TEST(SteeringControllerTest, JacobianOutsideTissueEqualsAnalyticMatrix) {
+  const TetMesh mesh = LoadLiver("liver_700");
+  SteeringPathConfig path = MakePathConfig();
+  path.approach_distance = 0.03;
+  SteeringControlConfig control;
+  // start tilted by 0.1 rad about x so that e_a is differentiable
+  Eigen::Isometry3d X_WE = SteeringSimulation::CalcStartFlangePose(InverseModelConfig().needle, path);
+  Vector6d tilt = Vector6d::Zero();
+  tilt[3] = 0.1;
+  X_WE = ApplyPoseIncrement(X_WE, tilt, PoseIncrementFrame::kWorldAligned);
+  const InverseModelConfig model = MakeModelConfig();
+  SteeringController controller(model, path, control, mesh, X_WE);
+  SteeringInput input;
+  input.p_WM = model.markers_W;
+  input.X_WE = X_WE;
+  const SteeringOutput out = controller.Update(input);
+  ASSERT_EQ(out.phase, InsertionPhase::kBeforeSkin);
+  ASSERT_EQ(out.J.rows(), 4);
+  ASSERT_EQ(out.J.cols(), 6);
+
+  const Eigen::Isometry3d X_WN = controller.simulation().needle().CalcNeedlePose(X_WE);
+  const Eigen::Vector3d r = out.p_WTip - X_WE.translation();
+  const Eigen::Vector3d z = X_WN.linear().col(2);
+  const Eigen::Vector3d n = controller.simulation().path_direction();
+  const double angle = std::atan2(z.cross(n).norm(), z.dot(n));
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(4, 6);
+  expected.block<3, 3>(0, 0) = -Eigen::Matrix3d::Identity();
+  expected.block<3, 3>(0, 3) = Skew(r);
+  expected.block<1, 3>(3, 3) = -z.cross(n).transpose() / std::sin(angle);
+  // central differences: exact for the translations, O(h^2 |r|) for rotations (h = 5e-3 rad,
+  // |r| ~ 0.13 m): 1e-5 relative
+  const double tolerance = 1e-5 * expected.cwiseAbs().maxCoeff();
+  EXPECT_LT((out.J - expected).cwiseAbs().maxCoeff(), tolerance) << "J =\n"
+                                                                  << out.J << "\nexpected\n"
+                                                                  << expected;
+  EXPECT_EQ(out.num_perturbations, 12);
+}
+
+struct LoopResult {
+  double final_error = 0.0;  // plant tip to plant target (m)
+  double model_error = 0.0;  // the controller's own estimate (m)
+  int steps = 0;
+  bool reached_end = false;
+};
+
+// closed loop: controller (E factor `model_factor`) drives a plant model (factor 1)
+LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_steps) {
+  const TetMesh mesh = LoadLiver("liver_700");
+  const SteeringPathConfig path = MakePathConfig();
+  const InverseModelConfig plant_config = MakeModelConfig(1.0);
+  const InverseModelConfig model_config = MakeModelConfig(model_factor);
+  SteeringControlConfig control;
+  control.dof = dof;
+  control.law.max_translation_step = 0.003;
+  control.law.max_joint_step = 0.01;
+  const Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(plant_config.needle, path);
+
+  Vector7d q = Vector7d::Zero();
+  if (dof == SteeringDof::kJoint7) {
+    control.iiwa.X_WB.translation() = Eigen::Vector3d(0.0, 0.75, -0.3);
+    const Iiwa14Model iiwa(MakeFlangeIiwaConfig(control.iiwa));
+    const Iiwa14InverseKinematics ik(iiwa, Iiwa14IkConfig());
+    const Iiwa14IkResult solution = ik.Solve(X_WE0, iiwa.CalcMidRange());
+    EXPECT_TRUE(solution.success);
+    q = solution.q;
+  }
+  SteeringSimulation plant(plant_config, path, mesh, X_WE0);
+  SteeringController controller(model_config, path, control, mesh, X_WE0);
+  Eigen::Isometry3d X_WE = X_WE0;
+  LoopResult result;
+  for (int i = 0; i < max_steps; ++i) {
+    SteeringInput input;
+    input.p_WM = plant_config.markers_W;  // static liver: the markers stay at rest
+    input.X_WE = X_WE;
+    input.q = q;
+    const SteeringOutput out = controller.Update(input);
+    EXPECT_TRUE(out.valid) << "step " << i;
+    q = out.q_target;
+    X_WE = out.X_WE_target;
+    plant.Step(plant_config.markers_W, X_WE);
+    result.steps = i + 1;
+    result.reached_end = out.reached_end;
+    result.model_error = (out.p_WTip - out.p_WFinal).norm();
+    const Eigen::Vector3d tip = CalcTipPosition(plant.X_WN(), plant.needle().length());
+    result.final_error = (tip - plant.CalcPathPositions().back()).norm();
+  }
+  return result;
+}
+
+constexpr double kFinalTolerance = 0.5e-3;  // m (task requirement)
+
+TEST(SteeringControllerTest, StaticLiverCartesianReachesTarget) {
+  const LoopResult r = RunStaticInsertion(SteeringDof::kCartesian6, 1.1, 90);
+  EXPECT_TRUE(r.reached_end);
+  EXPECT_LT(r.final_error, kFinalTolerance) << "model error " << r.model_error;
+  std::printf("cartesian6: final error %.4f mm (model %.4f mm) after %d steps\n",
+              1e3 * r.final_error, 1e3 * r.model_error, r.steps);
+}
+
+TEST(SteeringControllerTest, StaticLiverJointSpaceReachesTarget) {
+  const LoopResult r = RunStaticInsertion(SteeringDof::kJoint7, 1.1, 120);
+  EXPECT_TRUE(r.reached_end);
+  EXPECT_LT(r.final_error, kFinalTolerance) << "model error " << r.model_error;
+  std::printf("joint7: final error %.4f mm (model %.4f mm) after %d steps\n",
+              1e3 * r.final_error, 1e3 * r.model_error, r.steps);
+}
+
+}  // namespace
+}  // namespace nsim
