@@ -7,7 +7,7 @@ void AddTransportOptions(CommandLine& cli) {
   cli.Option("dds-config", "FILE", "Cyclone DDS XML configuration", NSIM_DEFAULT_DDS_CONFIG)
       .Option("domain", "N", "DDS domain id", std::to_string(d.domain_id))
       .Option("partition", "NAME", "DDS partition (both processes must use the same)", d.partition)
-      .Option("lease", "S", "liveliness lease of this process's writers (s)", "0.5")
+      .Option("lease", "S", "liveliness lease of this process's writers (s)", "2")
       .Option("deadline", "S", "max period between samples of a stream (s), 0 = none", "2");
 }
 
