@@ -112,9 +112,13 @@ class DirectRun {
                                                              transport::Qos::kStateStream);
     status_writer_ =
         std::make_unique<transport::Writer<SimStatus>>(*participant_, transport::Qos::kStatus);
+    // lockstep: every answer is kept until taken (with latency_steps >= 2 the controller may
+    // answer frame k - 1 before this process took the answer to k - 2; a keep-last-1 reader
+    // would drop it and the run would depend on timing)
     if (controller_)
-      targets_ =
-          std::make_unique<transport::Reader<RobotTarget>>(*participant_, transport::Qos::kTarget);
+      targets_ = std::make_unique<transport::Reader<RobotTarget>>(
+          *participant_, s_.run.mode == RunMode::kLockstep ? transport::Qos::kLossless
+                                                           : transport::Qos::kTarget);
     status_.sender = "direct_sim";
   }
 
@@ -236,6 +240,8 @@ class DirectRun {
     marker_frame_.stamp.seq = seq;
     marker_frame_.stamp.sim_time = t;
     markers_->Write(marker_frame_);
+    if (sent_at_.size() <= seq) sent_at_.resize(seq + 1, 0.0);
+    sent_at_[seq] = MonotonicSeconds();
     RobotState rs;
     rs.stamp = marker_frame_.stamp;
     rs.X_WE = robot_->X_WE();
@@ -256,6 +262,7 @@ class DirectRun {
     const Eigen::Isometry3d& X = rs.X_WE;
     const Eigen::Quaterniond q(X.linear());
     const Eigen::Vector3d& m0 = marker_frame_.p_WM[0];
+    distance_log_.emplace_back(t, last_distance_);
     csv_ << t << ',' << last_distance_ << ',' << e_p.x() << ',' << e_p.y() << ',' << e_p.z() << ','
          << int(PhaseOf(*scene_)) << ',' << m0.x() << ',' << m0.y() << ',' << m0.z() << ','
          << target.x() << ',' << target.y() << ',' << target.z() << ',' << tip.x() << ',' << tip.y()
@@ -281,6 +288,12 @@ class DirectRun {
     }
   }
 
+  // loop latency: wall time from sending frame answers_seq to receiving its target
+  void NoteLatency(const RobotTarget& target) {
+    if (target.answers_seq < sent_at_.size() && sent_at_[target.answers_seq] > 0)
+      latency_ms_.push_back(1e3 * (MonotonicSeconds() - sent_at_[target.answers_seq]));
+  }
+
   void Gate(const RobotTarget& target, double t) {
     const GateDecision d = gate_.Check(target, t, robot_->X_WE(), robot_->q());
     if (d.accepted) {
@@ -297,7 +310,10 @@ class DirectRun {
     auto take = [&] {
       received_.clear();
       targets_->Take(received_);
-      for (const RobotTarget& r : received_) pending_[r.answers_seq] = r;
+      for (const RobotTarget& r : received_) {
+        NoteLatency(r);
+        pending_[r.answers_seq] = r;
+      }
     };
     take();
     if (need < 0) return;
@@ -334,7 +350,10 @@ class DirectRun {
     } else {
       received_.clear();
       targets_->Take(received_);
-      for (const RobotTarget& r : received_) Gate(r, t);
+      for (const RobotTarget& r : received_) {
+        NoteLatency(r);
+        Gate(r, t);
+      }
     }
     if (controller_lost_ || !command_ || gate_.ShouldHold(t)) {
       robot_->Hold(h);
@@ -405,6 +424,38 @@ class DirectRun {
       punctured[names[tissue]] = p;
     }
     j["punctured"] = punctured;
+    // thesis fig. 5.9: the final error is the mean true tip-to-target distance over the
+    // steady-state window, its amplitude the peak-to-peak there; the window is the last
+    // steady_fraction of the simulated time
+    {
+      const double t_end = distance_log_.empty() ? 0.0 : distance_log_.back().first;
+      const double t_begin = t_end - kSteadyFraction * t_end;
+      double sum = 0.0, lo = INFINITY, hi = -INFINITY;
+      int n = 0;
+      for (const auto& [t, d] : distance_log_) {
+        if (t < t_begin - 1e-9) continue;
+        sum += d;
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+        ++n;
+      }
+      j["final_error_mm"] = n ? json(1e3 * sum / n) : json(nullptr);
+      j["final_error_amplitude_mm"] = n ? json(1e3 * (hi - lo)) : json(nullptr);
+      j["steady_window_s"] = {t_begin, t_end};
+      j["steady_window_samples"] = n;
+    }
+    j["direct_rate_hz"] = wall > 0 ? steps_done_ / wall : 0.0;
+    double latency_mean = 0.0, latency_max = 0.0;
+    for (double v : latency_ms_) {
+      latency_mean += v;
+      latency_max = std::max(latency_max, v);
+    }
+    if (!latency_ms_.empty()) latency_mean /= latency_ms_.size();
+    j["loop_latency_ms"] = {{"mean", latency_mean},
+                            {"median", Median(latency_ms_)},
+                            {"p95", Percentile(latency_ms_, 0.95)},
+                            {"max", latency_max},
+                            {"count", latency_ms_.size()}};
     j["final_tip_to_target_distance_mm"] = 1e3 * last_distance_;
     j["min_tip_to_target_distance_mm"] = 1e3 * min_distance_;
     j["final_e_p_m"] = Vec(last_e_p_);
@@ -441,6 +492,7 @@ class DirectRun {
                      {"latency_steps", s_.run.latency_steps},
                      {"liver_mesh", s_.liver_mesh_path},
                      {"liver_nodes", s_.liver_mesh.num_nodes()},
+                     {"mode", s_.run.mode == RunMode::kRealtime ? "realtime" : "lockstep"},
                      {"liver_young_modulus_pa", sc.liver.young_modulus},
                      {"liver_poisson_ratio", sc.liver.poisson_ratio},
                      {"skin_young_modulus_pa", sc.skin.fem.young_modulus},
@@ -490,6 +542,10 @@ class DirectRun {
   uint64_t hold_steps_ = 0, lockstep_timeouts_ = 0, rib_contact_steps_ = 0, unconverged_solves_ = 0;
   int vtk_written_ = 0;
   std::vector<double> step_ms_;
+  std::vector<double> sent_at_;     // monotonic time each frame was published (s), by seq
+  std::vector<double> latency_ms_;  // frame sent -> answering target received (ms)
+  std::vector<std::pair<double, double>> distance_log_;  // (t, true tip-target distance (m))
+  static constexpr double kSteadyFraction = 0.2;
   double last_step_ms_ = 0.0, last_distance_ = 0.0, min_distance_ = INFINITY;
   Eigen::Vector3d last_e_p_ = Eigen::Vector3d::Zero();
   double max_rib_penetration_ = 0.0;
@@ -510,6 +566,8 @@ int RunDirect(int argc, char** argv) {
       .Option("latency-steps", "N", "lockstep latency in steps, overrides run.latency_steps")
       .Option("vtk-every", "N", "VTK snapshots every N steps, overrides run.vtk_every")
       .Option("seed", "N", "random seed (breathing), overrides random_seed")
+      .Option("young-modulus", "PA",
+              "Young's modulus of the patient's liver (Pa), overrides patient.liver.young_modulus")
       .Flag("no-controller", "insert along the planned path at insertion.speed, no controller")
       .Flag("no-video", "no view (no window, no video, no PNG)")
       .Flag("quiet", "no progress lines");
@@ -535,6 +593,12 @@ int RunDirect(int argc, char** argv) {
     if (seed < 0) throw InputError(Str("--seed must be >= 0, got ", seed));
     scenario.random_seed = static_cast<uint64_t>(seed);
     scenario.scene.breathing.random_seed = scenario.random_seed;
+  }
+  if (cli.Has("young-modulus")) {
+    const double e = cli.GetDouble("young-modulus");
+    if (!(e > 0) || !std::isfinite(e))
+      throw InputError(Str("--young-modulus must be > 0 (Pa), got ", e));
+    scenario.scene.liver.young_modulus = e;
   }
   if (cli.GetFlag("no-video")) scenario.run.video = false;
   ValidateAs([&] { scenario.run.Validate(); }, "command line", "run.", "run.");

@@ -1,6 +1,8 @@
 #include "inverse_sim/scenario_loader.h"
 
+#include <cmath>
 #include <filesystem>
+#include <iostream>
 
 #include "common/core/error.h"
 #include "common/core/yaml_reader.h"
@@ -37,6 +39,84 @@ void ReadFixedVector(const YamlReader& y, const std::string& key,
   const std::vector<double> v = y.Child(key).AsDoubles();
   if (static_cast<int>(v.size()) != N) y.Fail(key, Str("expected ", N, " numbers, got ", v.size()));
   for (int i = 0; i < N; ++i) (*value)[i] = v[i];
+}
+
+bool Near(double a, double b) {
+  return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(a) + std::abs(b));
+}
+bool Near(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return (a - b).norm() <= 1e-12; }
+
+std::string Text(const Eigen::Vector3d& v) {
+  return Str("[", v.x(), ", ", v.y(), ", ", v.z(), "]");
+}
+
+// Compares what both processes must agree on with the direct sections of the same file (when
+// present): geometric mismatches go to `errors`, nominal material mismatches to `warnings`.
+void CheckAgainstDirect(const YamlReader& root, const InverseScenario& s,
+                        std::vector<std::string>* errors, std::vector<std::string>* warnings) {
+  auto vec = [&](const YamlReader& node, const std::string& key, const Eigen::Vector3d& mine,
+                 const std::string& my_key, std::vector<std::string>* out) {
+    Eigen::Vector3d theirs;
+    if (!node.Read(key, &theirs)) return;
+    if (!Near(theirs, mine))
+      out->push_back(
+          Str(my_key, " ", Text(mine), " differs from ", node.Where(key), " ", Text(theirs)));
+  };
+  auto num = [&](const YamlReader& node, const std::string& key, double mine,
+                 const std::string& my_key, std::vector<std::string>* out) {
+    double theirs;
+    if (!node.Read(key, &theirs)) return;
+    if (!Near(theirs, mine))
+      out->push_back(Str(my_key, " ", mine, " differs from ", node.Where(key), " ", theirs));
+  };
+  const YamlReader patient = root.OptionalChild("patient");
+  if (!patient.IsNull()) {
+    std::vector<Eigen::Vector3d> markers;
+    if (patient.Read("markers", &markers)) {
+      bool same = markers.size() == s.model.markers_W.size();
+      for (size_t i = 0; same && i < markers.size(); ++i)
+        same = Near(markers[i], s.model.markers_W[i]);
+      if (!same)
+        errors->push_back(
+            "inverse.markers differ from patient.markers (the marker rest positions)");
+    }
+    vec(patient, "entry", s.path.entry_W, "controller.path.entry", errors);
+    vec(patient, "target", s.path.target_W, "controller.path.target", errors);
+    const YamlReader liver = patient.OptionalChild("liver");
+    if (!liver.IsNull()) {
+      num(liver, "young_modulus", s.model.liver.young_modulus, "inverse.liver.young_modulus",
+          warnings);
+      num(liver, "poisson_ratio", s.model.liver.poisson_ratio, "inverse.liver.poisson_ratio",
+          warnings);
+      num(liver, "density", s.model.liver.density, "inverse.liver.density", warnings);
+    }
+    num(patient, "time_step", s.model.liver.time_step, "inverse.liver.time_step", warnings);
+  }
+  const YamlReader needle = root.OptionalChild("needle");
+  if (!needle.IsNull()) {
+    num(needle, "length", s.model.needle.length, "inverse.needle.length", errors);
+    num(needle, "radius", s.model.needle.radius, "inverse.needle.radius", errors);
+    // the direct default tool offset is zero and the axis +z_F, like the inverse defaults
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero(), axis = Eigen::Vector3d::UnitZ();
+    needle.Read("tool_offset", &offset);
+    needle.Read("axis", &axis);
+    if (!Near(offset, s.model.needle.p_FBase))
+      errors->push_back(Str("inverse.needle.p_FBase ", Text(s.model.needle.p_FBase),
+                            " differs from needle.tool_offset ", Text(offset)));
+    if (!Near(axis.normalized(), s.model.needle.axis_F.normalized()))
+      errors->push_back(Str("inverse.needle.axis_F ", Text(s.model.needle.axis_F),
+                            " differs from needle.axis ", Text(axis)));
+  }
+  const YamlReader insertion = root.OptionalChild("insertion");
+  if (!insertion.IsNull())
+    num(insertion, "approach_distance", s.path.approach_distance,
+        "controller.path.approach_distance", errors);
+  const YamlReader robot = root.OptionalChild("robot");
+  if (!robot.IsNull() && robot.Has("base_pose")) {
+    const Eigen::Isometry3d theirs = robot.Child("base_pose").AsPose();
+    if (!theirs.matrix().isApprox(s.control.iiwa.X_WB.matrix(), 1e-12))
+      errors->push_back("controller.iiwa_base differs from robot.base_pose");
+  }
 }
 
 }  // namespace
@@ -95,7 +175,8 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   const YamlReader pred = root.OptionalChild("prediction");
   if (!pred.IsNull()) {
     pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
-                    "pca_window", "horizon_window", "localization_delay"});
+                    "pca_window", "horizon_window", "localization_delay", "displacement"});
+    pred.Read("displacement", &s.prediction_displacement);
     pred.Read("enabled", &s.prediction_enabled);
     std::string filter;
     if (pred.Read("filter", &filter)) s.prediction.filter = ParsePredictionFilter(filter);
@@ -109,6 +190,33 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   }
   ValidateAs([&] { s.prediction.Validate(); }, path, "prediction.", "prediction.");
   ValidateAs([&] { s.horizon.Validate(); }, path, "horizon.", "prediction.");
+
+  const YamlReader dds = root.OptionalChild("dds");
+  if (!dds.IsNull()) {
+    dds.CheckKeys({"domain", "partition"});
+    dds.Read("domain", &s.dds_domain);
+    dds.Read("partition", &s.dds_partition);
+  }
+
+  const YamlReader run = root.OptionalChild("run");
+  if (!run.IsNull()) {
+    std::string mode;
+    if (run.Read("mode", &mode)) {
+      if (mode != "realtime" && mode != "lockstep")
+        run.Fail("mode", Str("expected realtime or lockstep, got '", mode, "'"));
+      s.lockstep = mode == "lockstep";
+    }
+  }
+
+  std::vector<std::string> errors, warnings;
+  CheckAgainstDirect(root, s, &errors, &warnings);
+  for (const std::string& w : warnings)
+    std::cerr << "inverse_sim: warning: " << path << ": " << w << "\n";
+  if (!errors.empty()) {
+    std::string all;
+    for (const std::string& e : errors) all += (all.empty() ? "" : "; ") + e;
+    throw InputError(Str(path, ": the inverse sections disagree with the direct ones: ", all));
+  }
   return s;
 }
 

@@ -1,48 +1,141 @@
 #!/usr/bin/env bash
-# The run command: installs missing packages, builds, then runs the main job and writes a
-# results folder. Until the closed loop exists, the main job is the replay demo: the bundled
-# breathing marker stream is replayed by direct_sim and recorded by inverse_sim over DDS on
-# this machine, the recording is compared with the stream, and the marker prediction filters
-# are evaluated on the recording.
+# The run command: installs missing packages, builds, then runs the closed loop on this machine
+# and writes a results folder. direct_sim (patient, robot, breathing) and inverse_sim (the
+# controller: registration to predicted markers, Jacobian, control law) talk over DDS
+# (configs/dds/local.xml); the default is the thesis §5.2 insertion: rigid needle, breathing,
+# prediction on, in the scenario's mode (realtime for liver_breathing.yaml).
 #
-#   scripts/run.sh [MARKERS.csv]      (default: configs/markers/breathing_demo.csv)
-#   NSIM_RATE_SCALE=1 scripts/run.sh  (replay at the recorded pace; default 4x faster)
+#   scripts/run.sh [scenario.yaml] [-- extra direct_sim options]
+#   NSIM_PREDICTION=off scripts/run.sh     (register to the measured markers)
+#   NSIM_MODE=lockstep scripts/run.sh      (reproducible; NSIM_LATENCY_STEPS=N, default 1)
+#   NSIM_DURATION=S scripts/run.sh         (simulated time, default the scenario's run.duration)
+#
+# Writes results/run_<date>/ (or $NSIM_RESULTS_DIR): summary.json (merged: final error and
+# amplitude, rates, loop latency, nRMS per marker, rejected counts, all settings; the full
+# summaries of both processes under "direct" and "inverse"), timeseries.csv (direct_sim),
+# distance.png (thesis fig. 5.9), view.avi and view.png, and the two logs. Both processes are
+# bounded in time and killed by PID on exit. The replay demo is scripts/replay_demo.sh.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+scenario="$root/configs/scenarios/liver_breathing.yaml"
+if [ $# -gt 0 ] && [ "$1" != "--" ]; then scenario="$(realpath "$1")"; shift; fi
+[ "${1:-}" = "--" ] && shift
+extra_direct=("$@")
+[ -f "$scenario" ] || { echo "run: no such scenario: $scenario" >&2; exit 2; }
+
 "$root/scripts/setup.sh"
+echo "run: building (scripts/build.sh) ..."
 "$root/scripts/build.sh" >/dev/null
 bin="${NSIM_BUILD_DIR:-$root/build}/bin"
 
-markers="${1:-$root/configs/markers/breathing_demo.csv}"
-rate_scale="${NSIM_RATE_SCALE:-4}"
-out="${NSIM_RESULTS_DIR:-$root/results/replay_$(date +%Y%m%d_%H%M%S)}"
+out="${NSIM_RESULTS_DIR:-$root/results/run_$(date +%Y%m%d_%H%M%S)}"
 mkdir -p "$out"
-dds=(--dds-config "$root/configs/dds/local.xml" --domain "${NSIM_DOMAIN:-0}" --partition "run$$")
+out="$(realpath "$out")"
+prediction="${NSIM_PREDICTION:-on}"
+# a 2 s liveliness lease (default 0.5 s): on a loaded 2-core machine 0.5 s can expire while
+# both processes are alive; the robot still holds after safety.hold_timeout without targets
+dds=(--dds-config "$root/configs/dds/local.xml" --domain "${NSIM_DOMAIN:-0}" --partition "run$$"
+     --lease 2)
+mode_args=()
+if [ -n "${NSIM_MODE:-}" ]; then
+  mode_args=(--mode "$NSIM_MODE")
+fi
+direct_args=("${mode_args[@]}")
+if [ "${NSIM_MODE:-}" = "lockstep" ]; then
+  latency="${NSIM_LATENCY_STEPS:-1}"
+  direct_args+=(--latency-steps "$latency")
+fi
+[ -n "${NSIM_DURATION:-}" ] && direct_args+=(--duration "$NSIM_DURATION")
+inverse_args=("${mode_args[@]}" --prediction "$prediction")
+if [ -n "${latency:-}" ]; then
+  # the horizon: the next frame plus the simulated latency (latency_steps x time_step)
+  h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
+  inverse_args+=(--localization-delay "$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')")
+fi
 
 pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
-trap cleanup EXIT INT TERM
+cleanup() {
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
+}
+trap cleanup EXIT
+trap 'echo "run: interrupted"; exit 130' INT TERM
 
-echo "run: replaying $markers at ${rate_scale}x into inverse_sim record; results in $out"
-"$bin/inverse_sim" record --out "$out/recorded.csv" --summary "$out/record_summary.json" \
-  --timeout 3600 "${dds[@]}" > "$out/record.log" 2>&1 &
-pids+=($!); rec=$!
-"$bin/direct_sim" replay --markers "$markers" --rate-scale "$rate_scale" "${dds[@]}" \
-  2>&1 | tee "$out/replay.log"
-rec_code=0; wait "$rec" || rec_code=$?
-echo
-tail -n 3 "$out/record.log"
-if [ "$rec_code" -ne 0 ]; then echo "run: the recorder failed (exit $rec_code), see $out/record.log"; exit 1; fi
-if cmp -s <(tail -n +2 "$markers" | awk -F, '{for(i=1;i<=NF;i++) printf "%.17g%s", $i, (i<NF?",":"\n")}') \
-          <(tail -n +2 "$out/recorded.csv" | awk -F, '{for(i=1;i<=NF;i++) printf "%.17g%s", $i, (i<NF?",":"\n")}'); then
-  echo "run: the recording equals the replayed stream, value for value"
-else
-  echo "run: the recording differs from the replayed stream (see $out/record_summary.json)"
+echo "run: closed loop, scenario $scenario, prediction $prediction${NSIM_MODE:+, mode $NSIM_MODE}"
+echo "run: results in $out"
+"$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --timeout 600 --start-timeout 60 \
+  "${inverse_args[@]}" "${dds[@]}" > "$out/inverse.log" 2>&1 &
+inv=$!; pids+=("$inv")
+# direct_sim bounded by timeout(1) too: a hung run cannot outlive 10 minutes
+timeout -s KILL 600 "$bin/direct_sim" run --config "$scenario" --out "$out/direct" \
+  "${direct_args[@]}" "${extra_direct[@]}" "${dds[@]}" > "$out/direct.log" 2>&1 &
+dir=$!; pids+=("$dir")
+# progress: direct_sim's lines as they come, until it exits
+tail -n +1 -f --pid="$dir" "$out/direct.log" &
+tailer=$!
+direct_code=0; wait "$dir" || direct_code=$?
+wait "$tailer" 2>/dev/null || true
+inverse_code=0
+for _ in $(seq 1 100); do kill -0 "$inv" 2>/dev/null || break; sleep 0.1; done
+if kill -0 "$inv" 2>/dev/null; then
+  echo "run: inverse_sim did not stop after direct_sim finished; killing it (PID $inv)"
+  kill "$inv" 2>/dev/null || true
+fi
+wait "$inv" || inverse_code=$?
+pids=()
+echo "run: direct_sim exit $direct_code, inverse_sim exit $inverse_code (logs: direct.log, inverse.log)"
+tail -n 2 "$out/inverse.log"
+
+if [ ! -f "$out/direct/summary.json" ]; then
+  echo "run: direct_sim wrote no summary, see $out/direct.log" >&2
   exit 1
 fi
+inverse_summary="$out/inverse/summary.json"
+[ -f "$inverse_summary" ] || { echo "run: inverse_sim wrote no summary" >&2; inverse_summary=/dev/null; }
+for f in timeseries.csv view.avi view.png; do
+  [ -f "$out/direct/$f" ] && ln -sf "direct/$f" "$out/$f"
+done
+jq -n --slurpfile d "$out/direct/summary.json" --slurpfile i <(cat "$inverse_summary" 2>/dev/null || echo '{}') \
+  --arg scenario "$scenario" --argjson dcode "$direct_code" --argjson icode "$inverse_code" '
+  ($d[0]) as $d | (($i[0]) // {}) as $i | {
+    scenario: $scenario,
+    direct_exit: $d.exit, direct_exit_code: $dcode,
+    inverse_ending: $i.ending, inverse_exit_code: $icode,
+    final_error_mm: $d.final_error_mm,
+    final_error_amplitude_mm: $d.final_error_amplitude_mm,
+    steady_window_s: $d.steady_window_s,
+    min_tip_to_target_distance_mm: $d.min_tip_to_target_distance_mm,
+    direct_rate_hz: $d.direct_rate_hz,
+    inverse_rate_hz: $i.inverse_rate_hz,
+    loop_latency_ms: $d.loop_latency_ms,
+    nrms_percent: $i.nrms_percent,
+    prediction_rms_mm: $i.prediction_rms_mm,
+    rejected: {direct_targets: $d.targets.rejected_total,
+               direct_targets_by_reason: $d.targets.rejected,
+               direct_transport_invalid: $d.targets.transport_invalid,
+               direct_hold_steps: $d.targets.hold_steps,
+               direct_lockstep_timeouts: $d.targets.lockstep_timeouts,
+               inverse_frames: $i.rejected_frames, inverse_frames_skipped: $i.frames_skipped,
+               inverse_invalid_outputs: $i.invalid_outputs},
+    controller_lost: $d.controller_lost,
+    punctured: $d.punctured,
+    settings: {mode: $d.mode, direct: $d.settings, inverse: $i.settings},
+    outputs: {timeseries: "timeseries.csv", plot: "distance.png", video: "view.avi", png: "view.png"},
+    direct: $d, inverse: $i}' > "$out/summary.json"
+
+plot_ok=1
+if [ -x /usr/bin/python3 ] && /usr/bin/python3 -c "import matplotlib" 2>/dev/null; then
+  /usr/bin/python3 "$root/scripts/plot_results.py" run "$out" || plot_ok=0
+else
+  echo "run: the plot could not be made: /usr/bin/python3 with matplotlib is missing (apt-get install python3-matplotlib)" >&2
+  plot_ok=0
+fi
+[ "$plot_ok" = 1 ] || echo "run: WARNING: no distance.png" >&2
+
 echo
-echo "run: marker prediction on the recording (inverse_sim predict-eval, order-2 linear filter)"
-"$bin/inverse_sim" predict-eval --markers "$out/recorded.csv" --horizon 0.1,0.2,0.4 --order 2 \
-  --optimize-window --snr-db 60,40,20 --seed 1 --out "$out/prediction" > "$out/prediction.log"
-sed -n '/mean over markers/,/^per marker/p' "$out/prediction.log" | sed '$d'
+jq -r '"run: final error \(.final_error_mm // "n/a" | tostring) mm (mean over t = \(.steady_window_s[0]) .. \(.steady_window_s[1]) s), amplitude \(.final_error_amplitude_mm // "n/a" | tostring) mm",
+       "run: direct \(.direct_rate_hz) Hz, inverse \(.inverse_rate_hz) Hz, loop latency mean \(.loop_latency_ms.mean) ms (p95 \(.loop_latency_ms.p95) ms)",
+       "run: nRMS per marker (%): \(.nrms_percent)",
+       "run: rejected targets \(.rejected.direct_targets), rejected frames \(.rejected.inverse_frames), hold steps \(.rejected.direct_hold_steps)"' "$out/summary.json"
 echo "run: results in $out"
+[ "$direct_code" -eq 0 ] && [ "$inverse_code" -eq 0 ] && [ "$plot_ok" = 1 ]

@@ -1,0 +1,181 @@
+#!/usr/bin/python3
+"""Plots of closed-loop results (thesis fig. 5.9: distance from the needle tip to the target over
+time; the final error is the mean over the steady-state window, the amplitude its peak-to-peak).
+
+Run with Debian's python3 and matplotlib (python3-matplotlib):
+
+  /usr/bin/python3 scripts/plot_results.py run DIR
+      DIR/timeseries.csv + DIR/summary.json (direct_sim, or the merged summary of scripts/run.sh)
+      -> DIR/distance.png
+  /usr/bin/python3 scripts/plot_results.py compare --out OUT.png LABEL=DIR [LABEL=DIR ...]
+      the distance curves of several runs on one plot (e.g. prediction on vs off)
+  /usr/bin/python3 scripts/plot_results.py experiments --runs RUNS.csv --out DIR
+      RUNS.csv (scripts/experiments.sh: setting,run,final_error_mm,final_error_amplitude_mm,...)
+      -> DIR/final_error.png (final error and amplitude per setting, every run a dot)
+
+Exit code 0 on success, 2 on bad input (a message names the file)."""
+
+import csv
+import json
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def fail(message):
+    print("plot_results: " + message, file=sys.stderr)
+    sys.exit(2)
+
+
+def read_timeseries(folder):
+    path = os.path.join(folder, "timeseries.csv")
+    if not os.path.isfile(path):
+        fail(path + ": missing")
+    t, d, phase = [], [], []
+    with open(path) as f:
+        reader = csv.DictReader(f)
+        for key in ("t", "tip_target_distance_m", "phase"):
+            if key not in (reader.fieldnames or []):
+                fail(path + ": no column '" + key + "'")
+        for row in reader:
+            t.append(float(row["t"]))
+            d.append(1e3 * float(row["tip_target_distance_m"]))
+            phase.append(int(row["phase"]))
+    if not t:
+        fail(path + ": no rows")
+    return t, d, phase
+
+
+def read_summary(folder):
+    path = os.path.join(folder, "summary.json")
+    if not os.path.isfile(path):
+        return {}
+    with open(path) as f:
+        return json.load(f)
+
+
+def steady(summary):
+    """(window, final error, amplitude) from a direct or merged summary."""
+    s = summary.get("direct", summary)
+    window = s.get("steady_window_s")
+    return window, s.get("final_error_mm"), s.get("final_error_amplitude_mm")
+
+
+def plot_run(folder):
+    t, d, phase = read_timeseries(folder)
+    summary = read_summary(folder)
+    window, err, amp = steady(summary)
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ax.plot(t, d, color="tab:blue", lw=1.5, label="tip to target")
+    for p, name, color in ((1, "skin punctured", "tab:orange"), (2, "liver punctured", "tab:red")):
+        times = [ti for ti, ph in zip(t, phase) if ph >= p]
+        if times:
+            ax.axvline(times[0], color=color, ls=":", lw=1, label=name)
+    if window and err is not None:
+        ax.axvspan(window[0], window[1], color="0.9", label="steady-state window")
+        ax.hlines(err, window[0], window[1], color="k", lw=1.2,
+                  label="final error %.2f mm (amplitude %.2f mm)" % (err, amp))
+    settings = summary.get("settings", {})
+    inverse = settings.get("inverse") or {}
+    title = "Distance to target"
+    prediction = inverse.get("prediction", settings.get("prediction"))
+    if prediction is not None:
+        title += " - prediction %s" % ("on" if prediction else "off")
+    if "mode" in settings:
+        title += ", %s" % settings["mode"]
+    ax.set_title(title)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("distance (mm)")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    # inset: the steady-state window magnified (the breathing residual)
+    if window and err is not None:
+        inset = ax.inset_axes([0.45, 0.35, 0.35, 0.3])
+        tw = [ti for ti in t if ti >= window[0]]
+        dw = d[len(t) - len(tw):]
+        inset.plot(tw, dw, color="tab:blue", lw=1)
+        inset.set_title("steady state (mm)", fontsize=7)
+        inset.tick_params(labelsize=6)
+    out = os.path.join(folder, "distance.png")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    print("plot_results: wrote " + out)
+
+
+def plot_compare(out, pairs):
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for pair in pairs:
+        if "=" not in pair:
+            fail("expected LABEL=DIR, got '" + pair + "'")
+        label, folder = pair.split("=", 1)
+        t, d, _ = read_timeseries(folder)
+        _, err, amp = steady(read_summary(folder))
+        if err is not None:
+            label += " (final %.2f mm, amplitude %.2f mm)" % (err, amp)
+        ax.plot(t, d, lw=1.2, label=label)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("distance to target (mm)")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    print("plot_results: wrote " + out)
+
+
+def plot_experiments(runs_csv, out_dir):
+    if not os.path.isfile(runs_csv):
+        fail(runs_csv + ": missing")
+    groups = {}
+    with open(runs_csv) as f:
+        for row in csv.DictReader(f):
+            try:
+                err = float(row["final_error_mm"])
+                amp = float(row["final_error_amplitude_mm"])
+            except (KeyError, ValueError):
+                continue  # a failed run (no numbers) is counted in the table, not plotted
+            groups.setdefault(row["setting"], []).append((err, amp))
+    if not groups:
+        fail(runs_csv + ": no run with numbers")
+    names = list(groups)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+    for ax, index, ylabel in ((axes[0], 0, "final error (mm)"),
+                              (axes[1], 1, "amplitude (mm)")):
+        data = [[v[index] for v in groups[n]] for n in names]
+        ax.boxplot(data, labels=names, showmeans=True)
+        for i, values in enumerate(data):
+            ax.plot([i + 1] * len(values), values, "o", ms=3, alpha=0.5, color="tab:blue")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        ax.tick_params(axis="x", labelsize=8, rotation=15)
+    fig.suptitle("Final error over the steady-state window (%d runs per setting)"
+                 % max(len(g) for g in groups.values()))
+    fig.tight_layout()
+    out = os.path.join(out_dir, "final_error.png")
+    fig.savefig(out, dpi=110)
+    print("plot_results: wrote " + out)
+
+
+def main(argv):
+    if len(argv) < 2 or argv[1] in ("-h", "--help"):
+        print(__doc__)
+        return 0 if len(argv) >= 2 else 2
+    cmd = argv[1]
+    if cmd == "run" and len(argv) == 3:
+        plot_run(argv[2])
+    elif cmd == "compare" and len(argv) >= 5 and argv[2] == "--out":
+        plot_compare(argv[3], argv[4:])
+    elif cmd == "experiments" and len(argv) == 6 and argv[2] == "--runs" and argv[4] == "--out":
+        plot_experiments(argv[3], argv[5])
+    else:
+        fail("bad arguments; see --help")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

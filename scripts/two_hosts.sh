@@ -1,0 +1,111 @@
+#!/usr/bin/env bash
+# The closed loop on "two machines": direct_sim in one network namespace (10.77.0.1), inverse_sim
+# in another (10.77.0.2), joined by a veth pair, with the two-machine DDS configuration
+# (configs/dds/two_hosts.xml: explicit peers, no multicast). Needs root (ip netns, nft).
+#
+#   scripts/two_hosts.sh [scenario.yaml] [--loss PCT] [--latency-steps N] [--duration S]
+#                        [--prediction on|off] [--no-build]
+#
+# --loss PCT drops PCT % of the packets arriving in each namespace (nftables input rule
+# "numgen random mod 100 < PCT drop"); DDS's reliable protocol resends them. Latency is simulated
+# in the application: lockstep with --latency-steps N (default 1). Writes
+# results/two_hosts_<date>/ (or $NSIM_RESULTS_DIR): direct/, inverse/, the logs and summary.json
+# (merged, like scripts/run.sh). Namespaces, veth pair and rules are removed on exit, and both
+# processes are killed by PID.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+scenario="$root/configs/scenarios/liver_test_coarse.yaml"
+loss=0; latency=1; duration=""; prediction=on; build=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --loss) loss="$2"; shift 2 ;;
+    --latency-steps) latency="$2"; shift 2 ;;
+    --duration) duration="$2"; shift 2 ;;
+    --prediction) prediction="$2"; shift 2 ;;
+    --no-build) build=0; shift ;;
+    -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "two_hosts: unknown option '$1' (see --help)" >&2; exit 2 ;;
+    *) scenario="$(realpath "$1")"; shift ;;
+  esac
+done
+[[ "$loss" =~ ^[0-9]+$ ]] && [ "$loss" -le 100 ] || { echo "two_hosts: --loss must be 0..100, got '$loss'" >&2; exit 2; }
+[[ "$latency" =~ ^[0-9]+$ ]] || { echo "two_hosts: --latency-steps must be an integer >= 0" >&2; exit 2; }
+[ -f "$scenario" ] || { echo "two_hosts: no such scenario: $scenario" >&2; exit 2; }
+if [ "$(id -u)" -ne 0 ]; then echo "two_hosts: needs root (ip netns, nft)" >&2; exit 2; fi
+
+if [ "$build" = 1 ]; then
+  "$root/scripts/setup.sh"
+  "$root/scripts/build.sh" >/dev/null
+fi
+bin="${NSIM_BUILD_DIR:-$root/build}/bin"
+out="${NSIM_RESULTS_DIR:-$root/results/two_hosts_$(date +%Y%m%d_%H%M%S)}"
+mkdir -p "$out"; out="$(realpath "$out")"
+
+tag="nsim$$"; ns1="${tag}a"; ns2="${tag}b"
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
+  ip netns del "$ns1" 2>/dev/null || true
+  ip netns del "$ns2" 2>/dev/null || true
+}
+trap cleanup EXIT
+trap 'echo "two_hosts: interrupted"; exit 130' INT TERM
+
+ip netns add "$ns1"
+ip netns add "$ns2"
+ip link add "${tag}0" type veth peer name "${tag}1"
+ip link set "${tag}0" netns "$ns1"
+ip link set "${tag}1" netns "$ns2"
+ip -n "$ns1" addr add 10.77.0.1/24 dev "${tag}0"
+ip -n "$ns2" addr add 10.77.0.2/24 dev "${tag}1"
+for ns in "$ns1" "$ns2"; do ip -n "$ns" link set lo up; done
+ip -n "$ns1" link set "${tag}0" up
+ip -n "$ns2" link set "${tag}1" up
+if [ "$loss" -gt 0 ]; then
+  for ns in "$ns1" "$ns2"; do
+    ip netns exec "$ns" nft add table inet nsim
+    ip netns exec "$ns" nft add chain inet nsim input '{ type filter hook input priority 0 ; policy accept ; }'
+    ip netns exec "$ns" nft add rule inet nsim input iifname "${tag}*" numgen random mod 100 '<' "$loss" counter drop
+  done
+fi
+echo "two_hosts: direct_sim on 10.77.0.1 ($ns1), inverse_sim on 10.77.0.2 ($ns2), loss $loss %, lockstep latency $latency steps"
+echo "two_hosts: results in $out"
+
+h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
+delay=$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')
+common=(--dds-config "$root/configs/dds/two_hosts.xml" --domain "${NSIM_DOMAIN:-0}" --partition "$tag" --lease 3)
+ip netns exec "$ns2" "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --mode lockstep \
+  --prediction "$prediction" --localization-delay "$delay" --timeout 900 --start-timeout 60 \
+  "${common[@]}" > "$out/inverse.log" 2>&1 &
+inv=$!; pids+=("$inv")
+direct_args=(--mode lockstep --latency-steps "$latency" --no-video)
+[ -n "$duration" ] && direct_args+=(--duration "$duration")
+timeout -s KILL 900 ip netns exec "$ns1" "$bin/direct_sim" run --config "$scenario" --out "$out/direct" \
+  "${direct_args[@]}" "${common[@]}" > "$out/direct.log" 2>&1 &
+dir=$!; pids+=("$dir")
+tail -n +1 -f --pid="$dir" "$out/direct.log" &
+tailer=$!
+dcode=0; wait "$dir" || dcode=$?
+wait "$tailer" 2>/dev/null || true
+for _ in $(seq 1 50); do kill -0 "$inv" 2>/dev/null || break; sleep 0.1; done
+kill "$inv" 2>/dev/null || true
+icode=0; wait "$inv" || icode=$?
+pids=()
+if [ "$loss" -gt 0 ]; then
+  for ns in "$ns1" "$ns2"; do
+    echo "two_hosts: $ns dropped: $(ip netns exec "$ns" nft list chain inet nsim input | grep -o 'packets [0-9]*')"
+  done
+fi
+[ -f "$out/direct/summary.json" ] || { echo "two_hosts: direct_sim wrote no summary (exit $dcode)" >&2; exit 1; }
+jq -n --slurpfile d "$out/direct/summary.json" --slurpfile i <(cat "$out/inverse/summary.json" 2>/dev/null || echo '{}') \
+  --argjson loss "$loss" --argjson latency "$latency" '($d[0]) as $d | ($i[0] // {}) as $i | {
+    loss_percent: $loss, latency_steps: $latency, direct_exit: $d.exit, inverse_ending: $i.ending,
+    final_error_mm: $d.final_error_mm, final_error_amplitude_mm: $d.final_error_amplitude_mm,
+    direct_rate_hz: $d.direct_rate_hz, inverse_rate_hz: $i.inverse_rate_hz,
+    loop_latency_ms: $d.loop_latency_ms, nrms_percent: $i.nrms_percent,
+    lockstep_timeouts: $d.targets.lockstep_timeouts, rejected_targets: $d.targets.rejected_total,
+    inverse_frames_missing: $i.frames_missing, inverse_frames_skipped: $i.frames_skipped,
+    direct: $d, inverse: $i}' > "$out/summary.json"
+jq -r '"two_hosts: \(.direct_exit) / \(.inverse_ending): final error \(.final_error_mm) mm, amplitude \(.final_error_amplitude_mm) mm, loop latency \(.loop_latency_ms.mean) ms, lockstep timeouts \(.lockstep_timeouts), frames missing \(.inverse_frames_missing)"' "$out/summary.json"
+[ "$dcode" -eq 0 ] && [ "$icode" -eq 0 ]

@@ -1,0 +1,248 @@
+// The closed loop as two processes over DDS (configs/dds/local.xml), lockstep, on the coarse
+// scenario configs/scenarios/liver_test_coarse.yaml (liver_700 on both sides): the needle
+// reaches the target and the run is reproducible; a controller killed with SIGKILL mid-insertion
+// makes direct_sim hold the robot and report it; a prediction-on run scores every marker's
+// prediction better than not predicting (nRMS < 100 %). Every process is bounded in time and
+// killed by PID.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/integration/child_process.h"
+
+namespace nsim {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::ChildProcess;
+
+const std::string kBin = NSIM_BIN_DIR;
+const std::string kSource = NSIM_SOURCE_DIR;
+const std::string kScenario = kSource + "/configs/scenarios/liver_test_coarse.yaml";
+const std::string kDdsConfig = kSource + "/configs/dds/local.xml";
+constexpr int kDomain = 44;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::vector<std::string> Cat(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+// liver_test_coarse.yaml with absolute mesh paths and the given edits, written into dir
+fs::path WriteScenario(const fs::path& dir,
+                       const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = ReadText(kScenario);
+  auto replace_all = [&](const std::string& from, const std::string& to) {
+    size_t at = 0, count = 0;
+    while ((at = text.find(from, at)) != std::string::npos) {
+      text.replace(at, from.size(), to);
+      at += to.size();
+      ++count;
+    }
+    return count;
+  };
+  EXPECT_EQ(replace_all("../meshes/", kSource + "/configs/meshes/"), 3u);
+  for (const auto& [from, to] : edits) EXPECT_GE(replace_all(from, to), 1u) << from;
+  const fs::path path = dir / "scenario.yaml";
+  std::ofstream(path) << text;
+  return path;
+}
+
+// one closed-loop run: inverse_sim and direct_sim on their own partition
+struct Loop {
+  // A 3 s liveliness lease unless the extra options give one: a 0.5 s lease can expire on a
+  // loaded 2-core machine (ctest -j2 next to a build) while both processes are alive.
+  Loop(const fs::path& dir, const std::string& name, const fs::path& scenario,
+       std::vector<std::string> direct_extra, std::vector<std::string> inverse_extra)
+      : out(dir / name) {
+    fs::create_directories(out);
+    const std::vector<std::string> dds = {"--dds-config", kDdsConfig,
+                                          "--domain",     std::to_string(kDomain),
+                                          "--partition",  name + "_" + std::to_string(getpid())};
+    for (auto* extra : {&direct_extra, &inverse_extra}) {
+      if (std::find(extra->begin(), extra->end(), "--lease") == extra->end())
+        extra->insert(extra->end(), {"--lease", "3"});
+    }
+    inverse = std::make_unique<ChildProcess>(
+        Cat(Cat({kBin + "/inverse_sim", "run", "--config", scenario.string(), "--out",
+                 (out / "inverse").string(), "--timeout", "85", "--start-timeout", "30", "--quiet"},
+                inverse_extra),
+            dds),
+        (out / "inverse.log").string());
+    direct = std::make_unique<ChildProcess>(
+        Cat(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
+                 (out / "direct").string(), "--no-video", "--quiet"},
+                direct_extra),
+            dds),
+        (out / "direct.log").string());
+  }
+  json DirectSummary() const { return json::parse(ReadText(out / "direct/summary.json")); }
+  json InverseSummary() const { return json::parse(ReadText(out / "inverse/summary.json")); }
+  // timeseries.csv without the last column (step_time_ms, a wall-clock measurement)
+  std::string StateColumns() const {
+    std::ifstream in(out / "direct/timeseries.csv");
+    std::string line, all;
+    while (std::getline(in, line)) all += line.substr(0, line.rfind(',')) + "\n";
+    return all;
+  }
+
+  fs::path out;
+  std::unique_ptr<ChildProcess> inverse, direct;
+};
+
+// rows of timeseries.csv as numbers (header skipped)
+std::vector<std::vector<double>> ReadRows(const fs::path& csv) {
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    std::stringstream s(line);
+    std::string cell;
+    while (std::getline(s, cell, ',')) row.push_back(std::stod(cell));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// Tolerance: the steady-state error of this scenario is 0.7 mm (measured); 2 mm is the
+// tolerance the test states (the tip starts 65 mm from the target).
+constexpr double kReachToleranceMm = 2.0;
+
+TEST(ClosedLoop, LockstepInsertionReachesTheTargetReproducibly) {
+  const fs::path dir = TempDir("closed_loop_reach");
+  const fs::path scenario = WriteScenario(dir, {});
+  const std::vector<std::string> direct = {"--duration", "6"};
+  const std::vector<std::string> inverse = {"--prediction", "off"};
+  // the same run twice at once (different partitions): lockstep makes them equal
+  Loop a(dir, "a", scenario, direct, inverse), b(dir, "b", scenario, direct, inverse);
+  ASSERT_EQ(a.direct->Wait(85.0), 0) << a.direct->Output() << a.inverse->Output();
+  ASSERT_EQ(b.direct->Wait(85.0), 0) << b.direct->Output() << b.inverse->Output();
+  EXPECT_EQ(a.inverse->Wait(10.0), 0) << a.inverse->Output();
+  EXPECT_EQ(b.inverse->Wait(10.0), 0) << b.inverse->Output();
+
+  const json d = a.DirectSummary(), i = a.InverseSummary();
+  EXPECT_EQ(d["exit"], "completed");
+  EXPECT_EQ(d["steps"], 300);
+  EXPECT_TRUE(d["punctured"]["skin"]["punctured"].get<bool>());
+  EXPECT_TRUE(d["punctured"]["liver"]["punctured"].get<bool>());
+  EXPECT_LT(d["final_error_mm"].get<double>(), kReachToleranceMm);
+  EXPECT_LT(d["final_error_amplitude_mm"].get<double>(), kReachToleranceMm);
+  EXPECT_EQ(d["targets"]["rejected_total"], 0);
+  EXPECT_EQ(d["targets"]["lockstep_timeouts"], 0);
+  EXPECT_EQ(d["targets"]["accepted"], 299);  // frames 0..298 answer steps 1..299
+  EXPECT_GE(d["loop_latency_ms"]["count"].get<int>(), 299);
+  EXPECT_GT(d["loop_latency_ms"]["mean"].get<double>(), 0.0);
+  EXPECT_EQ(i["ending"], "direct_finished");
+  // every frame answered (301 with the final state, if it came before the finished status)
+  EXPECT_GE(i["targets_sent"].get<int>(), 300);
+  EXPECT_LE(i["targets_sent"].get<int>(), 301);
+  EXPECT_EQ(i["frames_skipped"], 0);
+  EXPECT_EQ(i["rejected_frames"], 0);
+  EXPECT_GT(i["inverse_rate_hz"].get<double>(), 0.0);
+  EXPECT_EQ(a.StateColumns(), b.StateColumns());
+}
+
+TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
+  const fs::path dir = TempDir("closed_loop_kill");
+  const fs::path scenario = WriteScenario(dir, {});
+  Loop loop(dir, "kill", scenario, {"--duration", "5"}, {"--prediction", "off", "--lease", "0.5"});
+  // kill the controller once the needle is in the skin (phase >= 1) and moving
+  const fs::path csv = loop.out / "direct/timeseries.csv";
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  bool in_skin = false;
+  while (!in_skin && std::chrono::steady_clock::now() < end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    // the last complete line
+    std::string text = ReadText(csv);
+    const size_t end_of_last = text.rfind('\n');
+    if (end_of_last == std::string::npos || end_of_last == 0) continue;
+    text.resize(end_of_last);
+    const size_t start = text.rfind('\n');
+    if (start == std::string::npos) continue;  // only the header so far
+    std::stringstream row(text.substr(start + 1));
+    std::string cell;
+    for (int c = 0; c < 6 && std::getline(row, cell, ','); ++c) {
+    }
+    in_skin = !cell.empty() && cell != "phase" && std::stoi(cell) >= 1;
+  }
+  ASSERT_TRUE(in_skin) << loop.direct->Output();
+  loop.inverse->Kill(SIGKILL);
+  const int code = loop.direct->Wait(60.0);
+  const std::string output = loop.direct->Output();
+  EXPECT_EQ(code, 1) << output;
+  EXPECT_NE(output.find("inverse_sim lost"), std::string::npos) << output;
+  EXPECT_NE(output.find("robot holds"), std::string::npos) << output;
+
+  const json d = loop.DirectSummary();
+  EXPECT_EQ(d["exit"], "controller_lost");
+  EXPECT_TRUE(d["controller_lost"].get<bool>());
+  const double lost_at = d["controller_lost_time_s"].get<double>();
+  EXPECT_GT(lost_at, 0.0);
+  EXPECT_LT(lost_at, 4.5);
+  EXPECT_EQ(d["steps"], 250);  // it keeps simulating the patient to the end
+  // the robot holds: after braking (<= 0.1 s at the robot's acceleration limit) it stays put
+  const std::vector<std::vector<double>> rows = ReadRows(csv);
+  ASSERT_FALSE(rows.empty());
+  const std::vector<double>& final_row = rows.back();
+  int held_rows = 0;
+  for (const auto& r : rows) {
+    if (r[0] < lost_at + 0.2) continue;
+    ++held_rows;
+    for (int c = 15; c <= 21; ++c) EXPECT_NEAR(r[c], final_row[c], 1e-12) << "t = " << r[0];
+    EXPECT_EQ(r[22], 1.0) << "holding at t = " << r[0];
+  }
+  EXPECT_GT(held_rows, 10);
+}
+
+TEST(ClosedLoop, PredictionBeatsNoPredictionForEveryMarker) {
+  const fs::path dir = TempDir("closed_loop_nrms");
+  // a shorter PCA buffer (2 s instead of 6 s) so the predictor is ready early in a short run
+  const fs::path scenario = WriteScenario(dir, {{"pca_window: 300", "pca_window: 100"}});
+  Loop loop(dir, "nrms", scenario, {"--duration", "8", "--latency-steps", "2"},
+            {"--prediction", "on", "--localization-delay", "0.04"});
+  ASSERT_EQ(loop.direct->Wait(85.0), 0) << loop.direct->Output() << loop.inverse->Output();
+  EXPECT_EQ(loop.inverse->Wait(10.0), 0) << loop.inverse->Output();
+  const json d = loop.DirectSummary(), i = loop.InverseSummary();
+  // two steps of latency: the steady error is larger (2.17 mm measured) than with one (0.7 mm)
+  EXPECT_LT(d["final_error_mm"].get<double>(), 3.0);
+  EXPECT_TRUE(i["settings"]["prediction"].get<bool>());
+  EXPECT_GT(i["predictions_scored"].get<int>(), 250);  // 300 from t = 2 s to 8 s
+  ASSERT_EQ(i["nrms_percent"].size(), 5u);
+  for (size_t m = 0; m < 5; ++m) {
+    ASSERT_TRUE(i["nrms_percent"][m].is_number()) << "marker " << m;
+    EXPECT_GT(i["nrms_percent"][m].get<double>(), 0.0) << "marker " << m;
+    EXPECT_LT(i["nrms_percent"][m].get<double>(), 100.0) << "marker " << m;
+  }
+}
+
+}  // namespace
+}  // namespace nsim
