@@ -3,11 +3,14 @@
 # and writes a results folder. direct_sim (patient, robot, breathing) and inverse_sim (the
 # controller: registration to predicted markers, Jacobian, control law) talk over DDS
 # (configs/dds/local.xml); the default is the thesis §5.2 insertion: rigid needle, breathing,
-# prediction on, in the scenario's mode (realtime for liver_breathing.yaml).
+# prediction on, in lockstep mode with a 1-step latency: reproducible, and on a 2-core machine
+# neither process is starved (in realtime mode on 2 cores direct_sim reaches about 24 of its
+# 50 steps/s and some runs stall short of the target; see README "Limitations").
 #
 #   scripts/run.sh [scenario.yaml] [-- extra direct_sim options]
 #   NSIM_PREDICTION=off scripts/run.sh     (register to the measured markers)
-#   NSIM_MODE=lockstep scripts/run.sh      (reproducible; NSIM_LATENCY_STEPS=N, default 1)
+#   NSIM_MODE=realtime scripts/run.sh      (wall-clock pacing; NSIM_MODE=lockstep is the default,
+#                                           NSIM_LATENCY_STEPS=N, default 1)
 #   NSIM_DURATION=S scripts/run.sh         (simulated time, default the scenario's run.duration)
 #
 # Writes results/run_<date>/ (or $NSIM_RESULTS_DIR): summary.json (merged: final error and
@@ -36,10 +39,8 @@ prediction="${NSIM_PREDICTION:-on}"
 # both processes are alive; the robot still holds after safety.hold_timeout without targets
 dds=(--dds-config "$root/configs/dds/local.xml" --domain "${NSIM_DOMAIN:-0}" --partition "run$$"
      --lease 2)
-mode_args=()
-if [ -n "${NSIM_MODE:-}" ]; then
-  mode_args=(--mode "$NSIM_MODE")
-fi
+NSIM_MODE="${NSIM_MODE:-lockstep}"
+mode_args=(--mode "$NSIM_MODE")
 direct_args=("${mode_args[@]}")
 if [ "${NSIM_MODE:-}" = "lockstep" ]; then
   latency="${NSIM_LATENCY_STEPS:-1}"
