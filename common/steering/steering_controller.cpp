@@ -88,12 +88,19 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     entry_plane_ = MakeSkinPlane(sim_->X_WN().translation(), -sim_->path_direction());
   }
 
-  // advance the path target with the model's tip
+  // advance the path target with the model's tip: when the tip is within switch_distance of
+  // it, or has passed it along the (deformed) path; without the second rule a lateral error
+  // the needle cannot remove inside the tissue stalls the insertion at an intermediate point
   {
     const SteeringEvaluation now = sim_->EvaluateAt(X_WF, workspace_);
     const int last = static_cast<int>(now.p_WPath.size()) - 1;
-    while (path_index_ < last && (now.p_WPath[path_index_] - now.p_WTip).norm() <=
-                                     switch_distance_) {
+    auto passed = [&](int i) {
+      const Eigen::Vector3d along = now.p_WPath[i + 1] - now.p_WPath[i];
+      return (now.p_WTip - now.p_WPath[i]).dot(along) >= 0.0;
+    };
+    while (path_index_ < last &&
+           ((now.p_WPath[path_index_] - now.p_WTip).norm() <= switch_distance_ ||
+            passed(path_index_))) {
       ++path_index_;
     }
   }
@@ -108,7 +115,8 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   Eigen::VectorXd steps(n);
   if (control_.dof == SteeringDof::kCartesian6) {
     steps = control_.pose_steps;
-    for (const Eigen::Isometry3d& X : MakePosePerturbations(X_WF, control_.pose_steps, control_.law.frame))
+    for (const Eigen::Isometry3d& X :
+         MakePosePerturbations(X_WF, control_.pose_steps, control_.law.frame))
       samples.push_back(EvaluateObjectives(X, out.phase));
   } else {
     steps = control_.joint_steps;
