@@ -21,39 +21,23 @@
 #include <vector>
 
 #include "tests/integration/child_process.h"
+#include "tests/integration/test_util.h"
 
 namespace nsim {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using testing::Cat;
 using testing::ChildProcess;
+using testing::ReadText;
+using testing::TempDir;
 
 const std::string kBin = NSIM_BIN_DIR;
 const std::string kSource = NSIM_SOURCE_DIR;
 const std::string kScenario = kSource + "/configs/scenarios/liver_test_coarse.yaml";
 const std::string kDdsConfig = kSource + "/configs/dds/local.xml";
 constexpr int kDomain = 44;
-
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::vector<std::string> Cat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
 
 // liver_test_coarse.yaml with absolute mesh paths and the given edits, written into dir
 fs::path WriteScenario(const fs::path& dir,

@@ -18,32 +18,21 @@
 #include "common/core/clock.h"
 #include "messages/transport.h"
 #include "tests/integration/child_process.h"
+#include "tests/integration/test_util.h"
 
 namespace nsim {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using testing::Cat;
 using testing::ChildProcess;
+using testing::ReadText;
+using testing::TempDir;
 
 const std::string kBin = NSIM_BIN_DIR;
 const std::string kSource = NSIM_SOURCE_DIR;
 const std::string kDdsConfig = kSource + "/configs/dds/local.xml";
-
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 void Replace(std::string& text, const std::string& from, const std::string& to) {
   const size_t at = text.find(from);
@@ -63,15 +52,6 @@ fs::path WriteScenario(const fs::path& dir,
   return path;
 }
 
-std::vector<std::string> Dds(int domain, const std::string& partition) {
-  return {"--dds-config", kDdsConfig, "--domain", std::to_string(domain), "--partition", partition};
-}
-
-std::vector<std::string> Cat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
-
 TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
   const fs::path dir = TempDir("direct_run");
   const fs::path scenario = WriteScenario(dir, {{"speed: 0.01", "speed: 0.02"}});
@@ -80,7 +60,7 @@ TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
   ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
                         (dir / "out").string(), "--no-controller", "--duration", "2", "--mode",
                         "lockstep", "--vtk-every", "50", "--quiet"},
-                       Dds(41, partition)),
+                       testing::DdsArgs(41, partition)),
                    (dir / "run.log").string());
   const int code = run.Wait(60.0);
   ASSERT_EQ(code, 0) << run.Output();
@@ -138,7 +118,7 @@ TEST(DirectRun, SafetyGateCountsBadTargetsAndNoticesTheControllerLeaving) {
 
   ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
                         (dir / "out").string(), "--duration", "4", "--no-video", "--quiet"},
-                       Dds(42, partition)),
+                       testing::DdsArgs(42, partition)),
                    (dir / "run.log").string());
   std::vector<MarkerFrame> got;
   std::vector<RobotState> robot;

@@ -7,22 +7,18 @@
 
 #include "common/markers/marker_csv.h"
 #include "tests/integration/child_process.h"
+#include "tests/integration/test_util.h"
 
 namespace nsim {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::Cat;
 using testing::ChildProcess;
+using testing::ReadText;
+using testing::TempDir;
 
 const std::string kBin = NSIM_BIN_DIR;
-const std::string kDdsConfig = NSIM_SOURCE_DIR "/configs/dds/local.xml";
-
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
-  fs::create_directories(dir);
-  return dir;
-}
 
 MarkerStream BreathingLikeStream(int markers, int frames, double rate_hz, uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -42,15 +38,6 @@ MarkerStream BreathingLikeStream(int markers, int frames, double rate_hz, uint64
   return s;
 }
 
-std::vector<std::string> Common(int domain, const std::string& partition) {
-  return {"--dds-config", kDdsConfig, "--domain", std::to_string(domain), "--partition", partition};
-}
-
-std::vector<std::string> Cat(std::vector<std::string> a, const std::vector<std::string>& b) {
-  a.insert(a.end(), b.begin(), b.end());
-  return a;
-}
-
 TEST(ReplayRecord, RecordingEqualsTheStreamValueForValueAndInOrder) {
   const fs::path dir = TempDir("roundtrip");
   const MarkerStream stream = BreathingLikeStream(5, 300, 100.0, 3);
@@ -59,11 +46,11 @@ TEST(ReplayRecord, RecordingEqualsTheStreamValueForValueAndInOrder) {
 
   ChildProcess record(Cat({kBin + "/inverse_sim", "record", "--out", (dir / "out.csv").string(),
                            "--summary", (dir / "summary.json").string(), "--timeout", "60"},
-                          Common(31, partition)),
+                          testing::DdsArgs(31, partition)),
                       (dir / "record.log").string());
   ChildProcess replay(Cat({kBin + "/direct_sim", "replay", "--markers", (dir / "in.csv").string(),
                            "--rate-scale", "3", "--wait-timeout", "30"},
-                          Common(31, partition)),
+                          testing::DdsArgs(31, partition)),
                       (dir / "replay.log").string());
   const int replay_code = replay.Wait(60);
   const int record_code = record.Wait(60);
@@ -95,11 +82,11 @@ TEST(ReplayRecord, KilledPublisherIsReportedWithinTheLivelinessLease) {
 
   ChildProcess record(
       Cat({kBin + "/inverse_sim", "record", "--out", (dir / "out.csv").string(), "--timeout", "60"},
-          Common(32, partition)),
+          testing::DdsArgs(32, partition)),
       (dir / "record.log").string());
   ChildProcess replay(Cat({kBin + "/direct_sim", "replay", "--markers", (dir / "in.csv").string(),
                            "--lease", std::to_string(lease_s)},
-                          Common(32, partition)),
+                          testing::DdsArgs(32, partition)),
                       (dir / "replay.log").string());
   // wait until frames flow
   const auto start = std::chrono::steady_clock::now();
