@@ -64,11 +64,7 @@ int RunBreathe(int argc, char** argv) {
       .Option("min-gain", "X", "motion gain of the most inferior markers", "0.6")
       .Option("max-gain", "X", "motion gain of the most superior markers", "1.0")
       .Option("max-tilt", "RAD", "largest per-marker tilt of the motion direction (rad)", "0.15");
-  cli.Parse(argc, argv, 1);
-  if (cli.help_requested()) {
-    std::cout << cli.Help();
-    return 0;
-  }
+  if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
 
   const long seed = cli.GetInt("seed");
   if (seed < 0) throw InputError(Str("--seed must be >= 0, got ", seed));

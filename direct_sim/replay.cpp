@@ -41,11 +41,7 @@ int RunReplay(int argc, char** argv) {
       .Option("wait-timeout", "S", "give up waiting for readers after S seconds", "30")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli);
-  cli.Parse(argc, argv, 1);
-  if (cli.help_requested()) {
-    std::cout << cli.Help();
-    return 0;
-  }
+  if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   const double rate_scale = cli.GetDouble("rate-scale");
   if (!(rate_scale > 0)) throw InputError(Str("--rate-scale must be > 0, got ", rate_scale));
   const long wait_readers = cli.GetInt("wait-readers");

@@ -117,8 +117,8 @@ class DirectRun {
     // would drop it and the run would depend on timing)
     if (controller_)
       targets_ = std::make_unique<transport::Reader<RobotTarget>>(
-          *participant_, s_.run.mode == RunMode::kLockstep ? transport::Qos::kLossless
-                                                           : transport::Qos::kTarget);
+          *participant_,
+          s_.run.mode == RunMode::kLockstep ? transport::Qos::kLossless : transport::Qos::kTarget);
     status_.sender = "direct_sim";
   }
 
@@ -572,11 +572,7 @@ int RunDirect(int argc, char** argv) {
       .Flag("no-video", "no view (no window, no video, no PNG)")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli);
-  cli.Parse(argc, argv, 1);
-  if (cli.help_requested()) {
-    std::cout << cli.Help();
-    return 0;
-  }
+  if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   DirectScenario scenario = LoadDirectScenario(cli.GetString("config"));
   if (cli.Has("duration")) scenario.run.duration = cli.GetDouble("duration");
   if (cli.Has("mode")) {

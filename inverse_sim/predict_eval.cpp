@@ -268,11 +268,7 @@ int RunPredictEval(int argc, char** argv) {
       .Option("kalman-harmonics", "K", "harmonics of the kalman breathing model", "2")
       .Option("seed", "N", "noise seed", "1")
       .Flag("no-plots", "skip the PNG plots");
-  cli.Parse(argc, argv, 1);
-  if (cli.help_requested()) {
-    std::cout << cli.Help();
-    return 0;
-  }
+  if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
 
   const std::vector<double> horizons = ParseHorizons(cli.GetString("horizon"));
   const std::vector<int> orders = ParseOrders(cli.GetString("order"));

@@ -51,11 +51,7 @@ int RunRecord(int argc, char** argv) {
               "1")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli);
-  cli.Parse(argc, argv, 1);
-  if (cli.help_requested()) {
-    std::cout << cli.Help();
-    return 0;
-  }
+  if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   const std::string out_path = cli.GetString("out");
   const double timeout = cli.GetDouble("timeout"), start_timeout = cli.GetDouble("start-timeout");
   const double end_grace = cli.GetDouble("end-grace");

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
-#include <map>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -135,15 +135,12 @@ int RunInverseSim(int argc, char** argv) {
       .Option("start-timeout", "S", "give up if direct_sim is not seen within S seconds", "60")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli);
-  cli.Parse(argc, argv, 1);
-  if (cli.help_requested()) {
-    std::cout << cli.Help();
-    return 0;
-  }
+  if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   InverseScenario scenario = LoadInverseScenario(cli.GetString("config"));
   if (cli.Has("prediction")) {
     const std::string v = cli.GetString("prediction");
-    if (v != "on" && v != "off") throw InputError(Str("--prediction must be on or off, got '", v, "'"));
+    if (v != "on" && v != "off")
+      throw InputError(Str("--prediction must be on or off, got '", v, "'"));
     scenario.prediction_enabled = v == "on";
   }
   if (cli.Has("dof")) scenario.control.dof = ParseSteeringDof(cli.GetString("dof"), "--dof");
@@ -162,7 +159,8 @@ int RunInverseSim(int argc, char** argv) {
     scenario.lockstep = v == "lockstep";
   }
   const double timeout = cli.GetDouble("timeout"), start_timeout = cli.GetDouble("start-timeout");
-  if (!(timeout > 0) || !(start_timeout > 0)) throw InputError("--timeout and --start-timeout must be > 0 (s)");
+  if (!(timeout > 0) || !(start_timeout > 0))
+    throw InputError("--timeout and --start-timeout must be > 0 (s)");
   const bool quiet = cli.GetFlag("quiet");
   const std::filesystem::path out_dir = cli.GetString("out");
   std::filesystem::create_directories(out_dir);
@@ -459,7 +457,9 @@ int RunInverseSim(int argc, char** argv) {
         {"domain", tc.domain_id},
         {"partition", tc.partition}}}};
   std::ofstream(out_dir / "summary.json") << summary.dump(2) << '\n';
-  if (!quiet) std::printf("inverse_sim: %s, %lu targets\n", ending.c_str(), static_cast<unsigned long>(targets_sent));
+  if (!quiet)
+    std::printf("inverse_sim: %s, %lu targets\n", ending.c_str(),
+                static_cast<unsigned long>(targets_sent));
   return exit_code;
 }
 

@@ -21,7 +21,8 @@ void ReadFem(const YamlReader& y, FemConfig* c) {
   y.Read("time_step", &c->time_step);
   y.Read("cg_relative_tolerance", &c->cg_relative_tolerance);
   std::string solver;
-  if (y.Read("linear_solver", &solver)) c->linear_solver = ParseFemLinearSolver(solver, y.Where("linear_solver"));
+  if (y.Read("linear_solver", &solver))
+    c->linear_solver = ParseFemLinearSolver(solver, y.Where("linear_solver"));
 }
 
 void ReadNeedle(const YamlReader& y, NeedleConfig* c) {

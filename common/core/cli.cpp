@@ -63,6 +63,12 @@ void CommandLine::Parse(int argc, char** argv, int first) {
   }
 }
 
+bool CommandLine::ParseOrPrintHelp(int argc, char** argv, int first) {
+  Parse(argc, argv, first);
+  if (help_) std::cout << Help();
+  return !help_;
+}
+
 std::string CommandLine::Help() const {
   std::ostringstream out;
   out << "usage: " << usage_ << "\n\n" << summary_ << "\n\noptions:\n";

@@ -27,6 +27,10 @@ class CommandLine {
   /// a missing required option (unless --help was given).
   void Parse(int argc, char** argv, int first);
 
+  /// Parse, and when --help was given prints Help() to stdout and returns false (the command
+  /// then exits with 0); true when the command should run.
+  bool ParseOrPrintHelp(int argc, char** argv, int first);
+
   bool help_requested() const { return help_; }
   std::string Help() const;
 

@@ -67,10 +67,14 @@ bool SegmentNearBox(const Eigen::Matrix3Xd& x, const Eigen::Vector3d& a, const E
 
 const char* ToString(TissuePhase phase) {
   switch (phase) {
-    case TissuePhase::kOutside: return "outside";
-    case TissuePhase::kContact: return "contact";
-    case TissuePhase::kInside: return "inside";
-    case TissuePhase::kExited: return "exited";
+    case TissuePhase::kOutside:
+      return "outside";
+    case TissuePhase::kContact:
+      return "contact";
+    case TissuePhase::kInside:
+      return "inside";
+    case TissuePhase::kExited:
+      return "exited";
   }
   return "?";
 }
@@ -81,8 +85,8 @@ void TissueCouplingConfig::Validate(const std::string& prefix) const {
   };
   check(puncture_force > 0.0 && std::isfinite(puncture_force), "puncture_force", "> 0 (N)",
         puncture_force);
-  check(friction_coefficient >= 0.0 && std::isfinite(friction_coefficient),
-        "friction_coefficient", ">= 0", friction_coefficient);
+  check(friction_coefficient >= 0.0 && std::isfinite(friction_coefficient), "friction_coefficient",
+        ">= 0", friction_coefficient);
   check(friction_force_per_length >= 0.0 && std::isfinite(friction_force_per_length),
         "friction_force_per_length", ">= 0 (N/m)", friction_force_per_length);
   check(point_spacing > 0.0 && std::isfinite(point_spacing), "point_spacing", "> 0 (m)",
@@ -92,8 +96,7 @@ void TissueCouplingConfig::Validate(const std::string& prefix) const {
 }
 
 void NeedleCouplingConfig::Validate() const {
-  for (size_t i = 0; i < tissues.size(); ++i)
-    tissues[i].Validate(Str("coupling.tissues[", i, "]"));
+  for (size_t i = 0; i < tissues.size(); ++i) tissues[i].Validate(Str("coupling.tissues[", i, "]"));
   bevel.Validate("coupling.bevel");
 }
 
@@ -172,8 +175,8 @@ TetPoint NeedleTissueCoupling::Locate(int t, const Eigen::Matrix3Xd& x, const Ei
 }
 
 void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
-                                          const std::vector<int>& tissue_bodies,
-                                          ConstraintSet& set, NeedleCouplingState& state) const {
+                                          const std::vector<int>& tissue_bodies, ConstraintSet& set,
+                                          NeedleCouplingState& state) const {
   NSIM_CHECK(static_cast<int>(tissue_bodies.size()) == num_tissues(), "expected ", num_tissues(),
              " tissue bodies, got ", tissue_bodies.size());
   NSIM_CHECK(static_cast<int>(state.tissues.size()) == num_tissues(),
@@ -201,6 +204,23 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     weights[1] = w;
     return set.AddBodyPoint(needle.body, nodes, weights);
   };
+  // two bilateral rows orthogonal to the needle axis z between a tissue point and a needle
+  // point, and the tag that names them
+  auto add_lateral_rows = [&](int tissue_point, int needle_point, const Eigen::Vector3d& z,
+                              CouplingRowTag::Kind kind, int tissue) {
+    Eigen::Vector3d d0, d1;
+    CalcTangentBasis(z, d0, d1);
+    Eigen::Matrix<double, 3, 2> lateral;
+    lateral << d0, d1;
+    set.AddBilateral(tissue_point, needle_point, lateral);
+    CouplingRowTag tag;
+    tag.kind = kind;
+    tag.tissue = tissue;
+    tag.row = set.num_rows() - 2;
+    tag.d0 = d0;
+    tag.d1 = d1;
+    return tag;
+  };
 
   for (int t = 0; t < num_tissues(); ++t) {
     const TissueCouplingConfig& cfg = config_.tissues[t];
@@ -226,7 +246,8 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
 
     if (ts.phase == TissuePhase::kContact) {
       const Eigen::Vector3d normal = TriangleNormal(mesh, xs, ts.contact_triangle);
-      const int pt = set.AddBodyPoint(b, mesh.tets[ts.contact.tet], ts.contact.bary, ts.contact_key);
+      const int pt =
+          set.AddBodyPoint(b, mesh.tets[ts.contact.tet], ts.contact.bary, ts.contact_key);
       const int pn = add_needle_point(u_tip);
       set.AddContact(pn, pt, normal);
       CouplingRowTag tag;
@@ -239,27 +260,16 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     }
     if (ts.phase != TissuePhase::kInside && ts.phase != TissuePhase::kExited) continue;
 
-    const bool friction =
-        cfg.friction_coefficient > 0.0 || cfg.friction_force_per_length > 0.0;
+    const bool friction = cfg.friction_coefficient > 0.0 || cfg.friction_force_per_length > 0.0;
     for (int i = 0; i < static_cast<int>(ts.points.size()); ++i) {
       const NeedlePathPoint& p = ts.points[i];
       const Eigen::Vector3d xp = EvalTetPoint(mesh.tets, xs, p.point);
       const double u = ProjectOnPolyline(needle.start, xp);
       const Eigen::Vector3d z = PolylineTangent(needle.end, u);
-      Eigen::Matrix<double, 3, 2> lateral;
-      Eigen::Vector3d d0, d1;
-      CalcTangentBasis(z, d0, d1);
-      lateral << d0, d1;
       const int pt = set.AddBodyPoint(b, mesh.tets[p.point.tet], p.point.bary, p.key);
       const int pn = add_needle_point(u);
-      set.AddBilateral(pt, pn, lateral);
-      CouplingRowTag tag;
-      tag.kind = CouplingRowTag::Kind::kLateral;
-      tag.tissue = t;
+      CouplingRowTag tag = add_lateral_rows(pt, pn, z, CouplingRowTag::Kind::kLateral, t);
       tag.point = i;
-      tag.row = set.num_rows() - 2;
-      tag.d0 = d0;
-      tag.d1 = d1;
       state.tags.push_back(tag);
       if (!friction) continue;
       // axial row: relative axial slip over the step
@@ -282,20 +292,9 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     // tip: the tissue ahead is cut; laterally the tip follows the tissue it is in
     if (ts.phase == TissuePhase::kInside && cfg.tip_constraint && ts.tip.tet >= 0 &&
         ts.report.depth - ts.last_seed_depth >= kTipSkipFraction * cfg.point_spacing) {
-      Eigen::Matrix<double, 3, 2> lateral;
-      Eigen::Vector3d d0, d1;
-      CalcTangentBasis(z_tip_end, d0, d1);
-      lateral << d0, d1;
       const int pt = set.AddBodyPoint(b, mesh.tets[ts.tip.tet], ts.tip.bary);
       const int pn = add_needle_point(u_tip);
-      set.AddBilateral(pt, pn, lateral);
-      CouplingRowTag tag;
-      tag.kind = CouplingRowTag::Kind::kTip;
-      tag.tissue = t;
-      tag.row = set.num_rows() - 2;
-      tag.d0 = d0;
-      tag.d1 = d1;
-      state.tags.push_back(tag);
+      state.tags.push_back(add_lateral_rows(pt, pn, z_tip_end, CouplingRowTag::Kind::kTip, t));
     }
   }
 }

@@ -39,7 +39,11 @@ Eigen::Isometry3d SteeringController::CalcFlangePose(const Vector7d& q) const {
 
 Eigen::VectorXd SteeringController::EvaluateObjectives(const Eigen::Isometry3d& X_WF,
                                                        InsertionPhase phase) const {
-  const SteeringEvaluation eval = sim_->EvaluateAt(X_WF, workspace_);
+  return CalcObjectives(sim_->EvaluateAt(X_WF, workspace_), phase);
+}
+
+Eigen::VectorXd SteeringController::CalcObjectives(const SteeringEvaluation& eval,
+                                                   InsertionPhase phase) const {
   ObjectiveValues values;
   values.e_p = CalcPositionObjective(eval.p_WPath[path_index_], eval.p_WTip);
   values.e_a = CalcAngleObjective(eval.X_WN.linear().col(2), sim_->path_direction());
@@ -91,8 +95,9 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   // advance the path target with the model's tip: when the tip is within switch_distance of
   // it, or has passed it along the (deformed) path; without the second rule a lateral error
   // the needle cannot remove inside the tissue stalls the insertion at an intermediate point
+  // (the unperturbed frozen-step solve, done once: it also gives e and the reported state)
+  const SteeringEvaluation now = sim_->EvaluateAt(X_WF, workspace_);
   {
-    const SteeringEvaluation now = sim_->EvaluateAt(X_WF, workspace_);
     const int last = static_cast<int>(now.p_WPath.size()) - 1;
     auto passed = [&](int i) {
       const Eigen::Vector3d along = now.p_WPath[i + 1] - now.p_WPath[i];
@@ -125,14 +130,13 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   }
   out.num_perturbations = static_cast<int>(samples.size());
   const FiniteDifferenceStatus status = AssembleCentralDifferenceJacobian(samples, steps, &out.J);
-  out.e = EvaluateObjectives(X_WF, out.phase);
+  out.e = CalcObjectives(now, out.phase);
   const auto t3 = Clock::now();
 
   // nominal state for reports
-  const SteeringEvaluation nominal = sim_->EvaluateAt(X_WF, workspace_);
-  out.p_WTip = nominal.p_WTip;
-  out.p_WTarget = nominal.p_WPath[path_index_];
-  out.p_WFinal = nominal.p_WPath.back();
+  out.p_WTip = now.p_WTip;
+  out.p_WTarget = now.p_WPath[path_index_];
+  out.p_WFinal = now.p_WPath.back();
 
   Eigen::VectorXd k;
   AssembleGainVector(out.phase, control_.gains, &k);

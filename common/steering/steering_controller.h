@@ -30,7 +30,8 @@ namespace nsim {
 
 /// Inputs of one control step.
 struct SteeringInput {
-  std::vector<Eigen::Vector3d> p_WM;  ///< marker positions to register to (m): measured or predicted
+  std::vector<Eigen::Vector3d>
+      p_WM;  ///< marker positions to register to (m): measured or predicted
   Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< measured flange pose
   Vector7d q = Vector7d::Zero();  ///< measured joints (rad), used with SteeringDof::kJoint7
   EntryPoint entry;               ///< the localized skin entry point (punctured = false: none)
@@ -48,10 +49,10 @@ struct SteeringTimings {
 struct SteeringOutput {
   bool valid = false;  ///< false: non-finite objectives or Jacobian; hold the robot
   InsertionPhase phase = InsertionPhase::kBeforeSkin;
-  int path_index = 0;          ///< current path target
-  bool reached_end = false;    ///< the last path target is the current one
-  Eigen::VectorXd e;           ///< objectives of the phase (eq. 3.3-3.5 stacked)
-  Eigen::MatrixXd J;           ///< rows x 6 or rows x 7
+  int path_index = 0;        ///< current path target
+  bool reached_end = false;  ///< the last path target is the current one
+  Eigen::VectorXd e;         ///< objectives of the phase (eq. 3.3-3.5 stacked)
+  Eigen::MatrixXd J;         ///< rows x 6 or rows x 7
   Eigen::Isometry3d X_WE_target = Eigen::Isometry3d::Identity();  ///< eq. 3.9 (kCartesian6)
   Vector7d q_target = Vector7d::Zero();                           ///< eq. A.3 (kJoint7)
   bool step_limited = false;
@@ -87,6 +88,9 @@ class SteeringController {
   const Iiwa14Model& iiwa() const { return iiwa_; }
 
  private:
+  /// The objective vector of `phase` from one evaluation of the frozen step.
+  Eigen::VectorXd CalcObjectives(const SteeringEvaluation& eval, InsertionPhase phase) const;
+
   SteeringControlConfig control_;
   Iiwa14Model iiwa_;
   std::unique_ptr<SteeringSimulation> sim_;

@@ -78,6 +78,20 @@ TEST(CommandLine, HelpSkipsRequiredChecksAndListsOptions) {
   EXPECT_NE(help.find("[default: 1.5]"), std::string::npos);
 }
 
+TEST(CommandLine, ParseOrPrintHelpTellsWhetherToRun) {
+  Argv help({"cmd", "--help"});
+  CommandLine a = MakeCli();
+  ::testing::internal::CaptureStdout();
+  EXPECT_FALSE(a.ParseOrPrintHelp(help.argc(), help.argv(), 1));
+  EXPECT_NE(::testing::internal::GetCapturedStdout().find("--markers FILE"), std::string::npos);
+  Argv run({"cmd", "--markers", "in.csv"});
+  CommandLine b = MakeCli();
+  EXPECT_TRUE(b.ParseOrPrintHelp(run.argc(), run.argv(), 1));
+  Argv bad({"cmd"});
+  CommandLine c = MakeCli();
+  EXPECT_THROW(c.ParseOrPrintHelp(bad.argc(), bad.argv(), 1), InputError);
+}
+
 TEST(RunSubcommands, ExitCodesFollowTheConvention) {
   std::vector<Subcommand> cmds = {
       {"ok", "", [](int, char**) { return 0; }},
