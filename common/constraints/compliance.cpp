@@ -6,25 +6,11 @@
 
 namespace nsim {
 
-namespace {
-
-bool SameNodes(const ConstraintSet& set, const ConstraintPoint& p, const std::vector<int>& nodes,
-               const std::vector<double>& weights) {
-  if (static_cast<int>(nodes.size()) != p.num_nodes) return false;
-  for (int k = 0; k < p.num_nodes; ++k) {
-    if (set.point_nodes()[p.first_node + k] != nodes[k] ||
-        set.point_weights()[p.first_node + k] != weights[k])
-      return false;
-  }
-  return true;
-}
-
-}  // namespace
-
 void ComplianceAssembler::Assemble(const ConstraintSet& set, Eigen::MatrixXd& W) {
   const int num_points = set.num_points();
   stats_ = ComplianceStats{};
   point_columns_.assign(num_points, nullptr);
+  if (static_cast<int>(point_storage_.size()) < num_points) point_storage_.resize(num_points);
 
   // which body points are used by a row
   std::vector<char> used(num_points, 0);
@@ -32,59 +18,62 @@ void ComplianceAssembler::Assemble(const ConstraintSet& set, Eigen::MatrixXd& W)
     const ConstraintRow& r = set.row(i);
     for (int t = r.first_term; t < r.first_term + r.num_terms; ++t) used[set.term(t).point] = 1;
   }
-  int num_unkeyed = 0;
   for (int p = 0; p < num_points; ++p) {
-    if (!used[p] || set.point(p).body < 0) {
-      used[p] = 0;
-      continue;
-    }
-    ++stats_.num_body_points;
-    if (set.point(p).key == 0) ++num_unkeyed;
+    if (set.point(p).body < 0) used[p] = 0;
+    stats_.num_body_points += used[p];
   }
-  if (static_cast<int>(unkeyed_.size()) < num_unkeyed) unkeyed_.resize(num_unkeyed);
-  int next_unkeyed = 0;
 
   for (int b = 0; b < set.num_bodies(); ++b) {
     const ConstraintBody& body = set.body(b);
     const int n = body.num_nodes();
     BodyCache& cache = caches_[body.uid()];
     if (cache.version != body.compliance_version()) {
-      cache.entries.clear();
+      cache.nodes.clear();
       cache.version = body.compliance_version();
+      ++cache.changes_in_a_row;
+    } else {
+      cache.changes_in_a_row = 0;
     }
-    for (auto& [key, entry] : cache.entries) ++entry.idle;
+    // a compliance that changes at every assemble (a body refactorized every step) keeps
+    // nothing: its keyed points are solved like unkeyed ones (3 columns, not 3 per node)
+    const bool node_columns = cache.changes_in_a_row < 2;
+    for (auto& [node, entry] : cache.nodes) ++entry.idle;
 
-    // serve cached points, collect the others
-    pending_.clear();
+    // the nodes of keyed points not cached yet, and the unkeyed points
+    pending_nodes_.clear();
+    pending_points_.clear();
     for (int p = 0; p < num_points; ++p) {
       const ConstraintPoint& pt = set.point(p);
       if (!used[p] || pt.body != b) continue;
-      if (pt.key != 0) {
-        auto it = cache.entries.find(pt.key);
-        if (it != cache.entries.end()) {
-          if (SameNodes(set, pt, it->second.nodes, it->second.weights)) {
-            if (it->second.idle > 0) ++stats_.num_reused_points;
-            it->second.idle = 0;
-            point_columns_[p] = &it->second.Y;
-            continue;
-          }
-          // the key was reused for another point: recompute
-          cache.entries.erase(it);
-        }
+      if (pt.key == 0 || !node_columns) {
+        pending_points_.push_back(p);
+        continue;
       }
-      pending_.push_back(p);
+      bool all_cached = true;
+      for (int m = 0; m < pt.num_nodes; ++m) {
+        const int node = set.point_nodes()[pt.first_node + m];
+        if (cache.nodes.count(node) > 0) continue;
+        all_cached = false;
+        if (std::find(pending_nodes_.begin(), pending_nodes_.end(), node) == pending_nodes_.end())
+          pending_nodes_.push_back(node);
+      }
+      stats_.num_reused_points += all_cached ? 1 : 0;
     }
 
-    // solve the 3 columns of every pending point at once
-    if (!pending_.empty()) {
-      const int k = static_cast<int>(pending_.size());
+    // one multi-column solve: 3 unit columns per pending node, then 3 per unkeyed point
+    const int k = static_cast<int>(pending_nodes_.size() + pending_points_.size());
+    if (k > 0) {
       std::vector<Eigen::Triplet<double>> triplets;
-      for (int j = 0; j < k; ++j) {
-        const ConstraintPoint& pt = set.point(pending_[j]);
+      for (size_t j = 0; j < pending_nodes_.size(); ++j)
+        for (int c = 0; c < 3; ++c)
+          triplets.emplace_back(3 * pending_nodes_[j] + c, 3 * static_cast<int>(j) + c, 1.0);
+      for (size_t j = 0; j < pending_points_.size(); ++j) {
+        const ConstraintPoint& pt = set.point(pending_points_[j]);
+        const int col = 3 * static_cast<int>(pending_nodes_.size() + j);
         for (int m = 0; m < pt.num_nodes; ++m) {
           const int node = set.point_nodes()[pt.first_node + m];
           const double w = set.point_weights()[pt.first_node + m];
-          for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * node + c, 3 * j + c, w);
+          for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * node + c, col + c, w);
         }
       }
       Eigen::SparseMatrix<double> rhs(3 * n, 3 * k);
@@ -93,32 +82,36 @@ void ComplianceAssembler::Assemble(const ConstraintSet& set, Eigen::MatrixXd& W)
       NSIM_CHECK(solved_.rows() == 3 * n && solved_.cols() == 3 * k, "ApplyCompliance returned ",
                  solved_.rows(), " x ", solved_.cols(), ", expected ", 3 * n, " x ", 3 * k);
       stats_.num_solved_columns += 3 * k;
-      for (int j = 0; j < k; ++j) {
-        const int p = pending_[j];
-        const ConstraintPoint& pt = set.point(p);
-        if (pt.key == 0) {
-          unkeyed_[next_unkeyed] = solved_.middleCols(3 * j, 3);
-          point_columns_[p] = &unkeyed_[next_unkeyed++];
-          continue;
-        }
-        auto [it, inserted] = cache.entries.try_emplace(pt.key);
-        Entry& e = it->second;
-        if (inserted) {
-          e.nodes.assign(set.point_nodes().begin() + pt.first_node,
-                         set.point_nodes().begin() + pt.first_node + pt.num_nodes);
-          e.weights.assign(set.point_weights().begin() + pt.first_node,
-                           set.point_weights().begin() + pt.first_node + pt.num_nodes);
-          e.Y = solved_.middleCols(3 * j, 3);
-        }
-        e.idle = 0;
-        point_columns_[p] = &e.Y;
+      for (size_t j = 0; j < pending_nodes_.size(); ++j)
+        cache.nodes[pending_nodes_[j]].Y = solved_.middleCols(3 * j, 3);
+      for (size_t j = 0; j < pending_points_.size(); ++j) {
+        const int p = pending_points_[j];
+        point_storage_[p] = solved_.middleCols(3 * (pending_nodes_.size() + j), 3);
+        point_columns_[p] = &point_storage_[p];
       }
     }
 
-    // evict long-unused entries
-    for (auto it = cache.entries.begin(); it != cache.entries.end();) {
+    // keyed points: Y_p = sum_k w_k C e_{n_k} from the node columns
+    for (int p = 0; p < num_points; ++p) {
+      const ConstraintPoint& pt = set.point(p);
+      if (!used[p] || pt.body != b || pt.key == 0 || !node_columns) continue;
+      const int* nodes = set.point_nodes().data() + pt.first_node;
+      const double* weights = set.point_weights().data() + pt.first_node;
+      for (int m = 0; m < pt.num_nodes; ++m) cache.nodes.at(nodes[m]).idle = 0;
+      if (pt.num_nodes == 1 && weights[0] == 1.0) {
+        point_columns_[p] = &cache.nodes.at(nodes[0]).Y;
+        continue;
+      }
+      Columns& Y = point_storage_[p];
+      Y.setZero(3 * n, 3);
+      for (int m = 0; m < pt.num_nodes; ++m) Y.noalias() += weights[m] * cache.nodes.at(nodes[m]).Y;
+      point_columns_[p] = &Y;
+    }
+
+    // evict long-unused node columns
+    for (auto it = cache.nodes.begin(); it != cache.nodes.end();) {
       if (it->second.idle > kMaxIdleAssembles)
-        it = cache.entries.erase(it);
+        it = cache.nodes.erase(it);
       else
         ++it;
     }

@@ -4,8 +4,15 @@
 // only the 3 columns Y_p = C_b N_p^T (3 n_b x 3, N_p the 3 x 3 n_b barycentric selection), and
 //     W_ij = sum_{t in i, s in j, same body} d_t^T (N_{p_t} Y_{p_s}) d_s.
 // Y_p does not depend on the row directions, so rows that rotate (a needle that turns, the
-// perturbations of the inverse simulation) reuse it; keyed points reuse it across steps while
-// the body's compliance_version() is unchanged (DESIGN.md "Speed").
+// perturbations of the inverse simulation) reuse it.
+// Caching across steps (DESIGN.md "Speed"): a keyed point's columns are combined from per-node
+// columns, Y_p = sum_k w_k C_b e_{n_k} (exact: C_b is linear), and the node columns are kept
+// while the body's compliance_version() is unchanged. A keyed point that moves (a needle tip
+// crossing a tet, a seeded point whose tet changes) costs a solve only for the nodes not seen
+// before; a point on one node with weight 1 (a contact node) uses the node's columns directly.
+// Unkeyed points, and keyed points of a body whose compliance changed at this and the previous
+// assemble (refactorized every step), are solved for their own 3 columns (cheaper than 3 per
+// node when nothing can be kept).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -19,16 +26,17 @@ namespace nsim {
 /// Counters of the last Assemble.
 struct ComplianceStats {
   int num_body_points = 0;     ///< distinct body points referenced by rows
-  int num_reused_points = 0;   ///< of which served from the cache
-  int num_solved_columns = 0;  ///< right-hand sides handed to ApplyCompliance (3 per new point)
+  int num_reused_points = 0;   ///< keyed points served from cached node columns alone
+  int num_solved_columns = 0;  ///< right-hand sides handed to ApplyCompliance (3 per new node
+                               ///< of a keyed point, 3 per unkeyed point)
 };
 
 /// Builds W and the corrections, and caches the compliance columns of keyed points. Holds all
 /// scratch space; reuse one object across steps.
 class ComplianceAssembler {
  public:
-  /// Computes the columns Y_p of every body point used by a row of `set` (reusing cached ones)
-  /// and W (num_rows x num_rows, m/N). Entries of keyed points not used for
+  /// Computes the columns Y_p of every body point used by a row of `set` (keyed points from
+  /// cached node columns) and W (num_rows x num_rows, m/N). Node columns not used for
   /// `kMaxIdleAssembles` consecutive calls are evicted.
   void Assemble(const ConstraintSet& set, Eigen::MatrixXd& W);
 
@@ -51,22 +59,21 @@ class ComplianceAssembler {
 
  private:
   using Columns = Eigen::Matrix<double, Eigen::Dynamic, 3>;
-  struct Entry {
-    std::vector<int> nodes;
-    std::vector<double> weights;
-    Columns Y;
+  struct NodeEntry {
+    Columns Y;     // C_b e_node: 3 n_b x 3
     int idle = 0;  // assembles since last use
   };
   struct BodyCache {
     std::uint64_t version = 0;
-    std::unordered_map<std::uint64_t, Entry> entries;
+    std::unordered_map<int, NodeEntry> nodes;  // by node index
+    int changes_in_a_row = 0;                  // assembles that found a new compliance_version
   };
 
   std::unordered_map<std::uint64_t, BodyCache> caches_;  // by body uid
   std::vector<const Columns*> point_columns_;            // per point of the set
-  std::vector<Columns> unkeyed_;                         // storage for points without a key
+  std::vector<Columns> point_storage_;                   // Y_p of points not aliasing a node
   Eigen::MatrixXd point_block_;                          // 3P x 3P: N_p Y_q
-  std::vector<int> pending_;                             // points to solve for one body
+  std::vector<int> pending_nodes_, pending_points_;      // to solve for one body
   Eigen::MatrixXd solved_;                               // 3n x 3k output of ApplyCompliance
   ComplianceStats stats_;
 };

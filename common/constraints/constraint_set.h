@@ -70,10 +70,11 @@ class ConstraintSet {
   /// Registers a body (not owned) and returns its index.
   int AddBody(ConstraintBody& body);
 
-  /// Adds a point sum_k weights[k] x_{nodes[k]} on body `body`. `key` (nonzero) names the point
-  /// persistently (e.g. a tissue point seeded along a needle path) so its compliance columns can
-  /// be reused across steps while the body's compliance_version() is unchanged; the same key must
-  /// then always come with the same nodes and weights on the same body. Returns the point index.
+  /// Adds a point sum_k weights[k] x_{nodes[k]} on body `body`. `key` (nonzero) marks a point
+  /// that persists across steps (a tissue point seeded along a needle path, the needle tip, a
+  /// contact node): its compliance columns are combined from per-node columns cached while the
+  /// body's compliance_version() is unchanged, so it may move (other nodes, other weights) and
+  /// costs a solve only for nodes not seen before (see compliance.h). Returns the point index.
   int AddBodyPoint(int body, const std::vector<int>& nodes, const std::vector<double>& weights,
                    std::uint64_t key = 0);
   /// Point at barycentric coordinates `bary` in the tetrahedron `tet` (node indices).

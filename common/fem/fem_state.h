@@ -30,6 +30,9 @@ struct FemState {
   /// Free-motion velocity change dv_free (m/s), 3 x #nodes, written by FemSolver::BeginStep;
   /// Dirichlet columns hold their prescribed dv.
   Eigen::Matrix3Xd dv_free;
+  /// dv_free of the step before (m/s), 3 x #nodes: with dv_free, the solver's warm start
+  /// 2 dv_free - dv_free_previous for the next step (zero at rest).
+  Eigen::Matrix3Xd dv_free_previous;
   /// Free-motion positions x + h (v + dv_free) (m), 3 x #nodes, written by BeginStep.
   Eigen::Matrix3Xd x_free;
   /// Forces at the start of the step (N), 3 x #nodes: elastic + gravity + external_forces.

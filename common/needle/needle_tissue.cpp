@@ -19,6 +19,9 @@ constexpr double kRetractionSlack = 0.1;
 constexpr double kTipSkipFraction = 0.25;
 // barycentric slack of the point-location walk (-)
 constexpr double kWalkTolerance = 1e-9;
+// constraint-point key of the tip in each tissue (seeded points count up from 1; keys only
+// need to be distinct within one body)
+constexpr std::uint64_t kTipPointKey = std::uint64_t{1} << 61;
 
 Eigen::Vector3d PolylinePoint(const Eigen::Matrix3Xd& X, double u) {
   const int n = static_cast<int>(X.cols());
@@ -292,7 +295,8 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     // tip: the tissue ahead is cut; laterally the tip follows the tissue it is in
     if (ts.phase == TissuePhase::kInside && cfg.tip_constraint && ts.tip.tet >= 0 &&
         ts.report.depth - ts.last_seed_depth >= kTipSkipFraction * cfg.point_spacing) {
-      const int pt = set.AddBodyPoint(b, mesh.tets[ts.tip.tet], ts.tip.bary);
+      // keyed: the tip moves through the tissue, its columns come from cached node columns
+      const int pt = set.AddBodyPoint(b, mesh.tets[ts.tip.tet], ts.tip.bary, kTipPointKey);
       const int pn = add_needle_point(u_tip);
       state.tags.push_back(add_lateral_rows(pt, pn, z_tip_end, CouplingRowTag::Kind::kTip, t));
     }
