@@ -134,9 +134,10 @@ fi
 [ "$plot_ok" = 1 ] || echo "run: WARNING: no distance.png" >&2
 
 echo
-jq -r '"run: final error \(.final_error_mm // "n/a" | tostring) mm (mean over t = \(.steady_window_s[0]) .. \(.steady_window_s[1]) s), amplitude \(.final_error_amplitude_mm // "n/a" | tostring) mm",
-       "run: direct \(.direct_rate_hz) Hz, inverse \(.inverse_rate_hz) Hz, loop latency mean \(.loop_latency_ms.mean) ms (p95 \(.loop_latency_ms.p95) ms)",
-       "run: nRMS per marker (%): \(.nrms_percent)",
+jq -r 'def r(d): if type == "number" then (. * pow(10; d) | round) / pow(10; d) else "n/a" end;
+       "run: final error \(.final_error_mm | r(2)) mm (mean over t = \(.steady_window_s[0] | r(2)) .. \(.steady_window_s[1] | r(2)) s), amplitude \(.final_error_amplitude_mm | r(2)) mm",
+       "run: direct \(.direct_rate_hz | r(1)) Hz, inverse \(.inverse_rate_hz | r(1)) Hz, loop latency mean \(.loop_latency_ms.mean | r(0)) ms (p95 \(.loop_latency_ms.p95 | r(0)) ms)",
+       "run: nRMS per marker (%): \(.nrms_percent | map(r(1)))",
        "run: rejected targets \(.rejected.direct_targets), rejected frames \(.rejected.inverse_frames), hold steps \(.rejected.direct_hold_steps)"' "$out/summary.json"
 echo "run: results in $out"
 [ "$direct_code" -eq 0 ] && [ "$inverse_code" -eq 0 ] && [ "$plot_ok" = 1 ]
