@@ -151,6 +151,8 @@ int RunInverseSim(int argc, char** argv) {
   if (cli.Has("localization-delay")) {
     scenario.horizon.localization_delay = cli.GetDouble("localization-delay");
     ValidateAs([&] { scenario.horizon.Validate(); }, "--localization-delay", "horizon.", "");
+    ResolveSearchLead(&scenario);
+    ValidateAs([&] { scenario.prediction.Validate(); }, "--localization-delay", "prediction.", "");
   }
   if (cli.Has("mode")) {
     const std::string v = cli.GetString("mode");
@@ -445,6 +447,8 @@ int RunInverseSim(int argc, char** argv) {
         {"filter", ToString(scenario.prediction.filter)},
         {"order", scenario.prediction.order},
         {"optimize_window", scenario.prediction.optimize_window},
+        {"search_lead", scenario.prediction.search_lead},
+        {"search_interval", scenario.prediction.search_interval},
         {"prediction_displacement", scenario.prediction_displacement},
         {"localization_delay_s", scenario.horizon.localization_delay},
         {"young_modulus_factor", scenario.model.young_modulus_factor},

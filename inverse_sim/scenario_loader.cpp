@@ -1,5 +1,6 @@
 #include "inverse_sim/scenario_loader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -176,7 +177,8 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   const YamlReader pred = root.OptionalChild("prediction");
   if (!pred.IsNull()) {
     pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
-                    "pca_window", "horizon_window", "localization_delay", "displacement"});
+                    "pca_window", "search_lead", "search_interval", "horizon_window",
+                    "localization_delay", "displacement"});
     pred.Read("displacement", &s.prediction_displacement);
     pred.Read("enabled", &s.prediction_enabled);
     std::string filter;
@@ -186,9 +188,15 @@ InverseScenario LoadInverseScenario(const std::string& path) {
     pred.Read("optimize_window", &s.prediction.optimize_window);
     pred.Read("window_max", &s.prediction.window_max);
     pred.Read("pca_window", &s.prediction.pca_window);
+    pred.Read("search_interval", &s.prediction.search_interval);
+    if (pred.Has("search_lead") && pred.Child("search_lead").AsString() != "auto") {
+      pred.Read("search_lead", &s.prediction.search_lead);
+      s.prediction_search_lead_auto = false;
+    }
     pred.Read("horizon_window", &s.horizon.window);
     pred.Read("localization_delay", &s.horizon.localization_delay);
   }
+  ResolveSearchLead(&s);
   ValidateAs([&] { s.prediction.Validate(); }, path, "prediction.", "prediction.");
   ValidateAs([&] { s.horizon.Validate(); }, path, "horizon.", "prediction.");
 
@@ -219,6 +227,14 @@ InverseScenario LoadInverseScenario(const std::string& path) {
     throw InputError(Str(path, ": the inverse sections disagree with the direct ones: ", all));
   }
   return s;
+}
+
+void ResolveSearchLead(InverseScenario* scenario) {
+  if (!scenario->prediction_search_lead_auto) return;
+  const double frame = scenario->model.liver.time_step;
+  const double frames = (scenario->horizon.localization_delay + frame) / frame;
+  scenario->prediction.search_lead =
+      std::isfinite(frames) ? std::max(1, static_cast<int>(std::lround(frames))) : 1;
 }
 
 }  // namespace nsim

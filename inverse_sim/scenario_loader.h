@@ -33,6 +33,12 @@ struct InverseScenario {
   /// part: measured nRMS 230-600 % at h = 0.04 s on liver_test_coarse.yaml. With the
   /// displacement the off-axis part is kept as measured.
   bool prediction_displacement = true;
+  /// prediction.search_lead: `auto` (the default) scores the LF window search as many frames
+  /// ahead as the predictions are used (localization_delay plus one frame, in frames of
+  /// inverse.liver.time_step; set by inverse_sim run, see ResolveSearchLead); an integer fixes
+  /// it (the thesis's Algorithm 1 scores 1 frame ahead). A window chosen for 1 frame and used
+  /// 6 frames ahead gave marker nRMS of 450 % at a 100 ms latency (liver_test_coarse.yaml).
+  bool prediction_search_lead_auto = true;
   HorizonConfig horizon;
   /// run.mode of the direct side (read from the same file): in lockstep inverse_sim answers
   /// every frame in order, so a run does not depend on timing.
@@ -44,5 +50,10 @@ struct InverseScenario {
 /// Reads and validates the three sections. InputError "<file>: <key>: ..." on a missing or
 /// malformed key, an unknown key, or an invalid value.
 InverseScenario LoadInverseScenario(const std::string& path);
+
+/// With prediction_search_lead_auto: prediction.search_lead = max(1, round((localization_delay
+/// + time_step) / time_step)), the horizon in frames; otherwise unchanged. Call after any
+/// override of horizon.localization_delay.
+void ResolveSearchLead(InverseScenario* scenario);
 
 }  // namespace nsim

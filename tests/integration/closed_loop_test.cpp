@@ -219,6 +219,8 @@ TEST(ClosedLoop, PredictionBeatsNoPredictionForEveryMarker) {
   // two steps of latency: the steady error is larger (2.17 mm measured) than with one (0.7 mm)
   EXPECT_LT(d["final_error_mm"].get<double>(), 3.0);
   EXPECT_TRUE(i["settings"]["prediction"].get<bool>());
+  // search_lead auto: the window search scores the horizon in frames, (0.04 + 0.02) / 0.02
+  EXPECT_EQ(i["settings"]["search_lead"].get<int>(), 3);
   EXPECT_GT(i["predictions_scored"].get<int>(), 250);  // 300 from t = 2 s to 8 s
   ASSERT_EQ(i["nrms_percent"].size(), 5u);
   for (size_t m = 0; m < 5; ++m) {
