@@ -168,7 +168,7 @@ TEST(ComplianceTest, MovingKeyedPointNeedsNoSolveWithinKnownNodes) {
     const int ia = set.AddBody(bodies.a);
     const double s = 0.1 + 0.15 * step;
     const int tip = set.AddBodyPoint(ia, std::vector<int>{0, 1, 3, 4},
-                                       std::vector<double>{s, 0.5 - 0.5 * s, 0.2, 0.3 - 0.5 * s}, 9);
+                                     std::vector<double>{s, 0.5 - 0.5 * s, 0.2, 0.3 - 0.5 * s}, 9);
     const int goal = set.AddKinematicPoint(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
     set.AddBilateral(tip, goal, Eigen::Matrix3d::Identity());
     assembler.Assemble(set, W);
@@ -181,7 +181,7 @@ TEST(ComplianceTest, MovingKeyedPointNeedsNoSolveWithinKnownNodes) {
   set.Clear();
   const int ia = set.AddBody(bodies.a);
   const int tip = set.AddBodyPoint(ia, std::vector<int>{1, 2, 3, 4},
-                                     std::vector<double>{0.25, 0.25, 0.25, 0.25}, 9);
+                                   std::vector<double>{0.25, 0.25, 0.25, 0.25}, 9);
   set.AddBilateral(tip, set.AddKinematicPoint(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()),
                    Eigen::Matrix3d::Identity());
   assembler.Assemble(set, W);

@@ -3,9 +3,9 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "tests/integration/child_process.h"
+#include "tests/integration/test_util.h"
 
 namespace nsim {
 namespace {
@@ -14,25 +14,6 @@ namespace fs = std::filesystem;
 using testing::ChildProcess;
 
 const std::string kBin = NSIM_BIN_DIR;
-
-// the coarse test scenario with absolute mesh paths and its first `from` replaced by `to`
-std::string WriteEditedScenario(const fs::path& dir, const std::string& name,
-                                const std::string& from, const std::string& to) {
-  const fs::path source = fs::path(NSIM_SOURCE_DIR) / "configs/scenarios/liver_test_coarse.yaml";
-  std::stringstream in;
-  in << std::ifstream(source).rdbuf();
-  std::string text = in.str();
-  const std::string meshes = "../meshes/", absolute = (source.parent_path() / "../meshes/").string();
-  for (size_t at = text.find(meshes); at != std::string::npos;
-       at = text.find(meshes, at + absolute.size()))
-    text.replace(at, meshes.size(), absolute);
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  const fs::path path = dir / name;
-  std::ofstream(path) << text;
-  return path.string();
-}
 
 struct Case {
   std::vector<std::string> args;
@@ -75,15 +56,21 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
       {{kBin + "/direct_sim", "replay", "--help"}, 0, "--rate-scale X"},
       {{kBin + "/inverse_sim", "--help"}, 0, "record"},
       {{kBin + "/inverse_sim", "run", "--config",
-        WriteEditedScenario(dir, "lead0.yaml", "search_lead: auto", "search_lead: 0")},
+        testing::WriteEditedScenario(dir, "lead0.yaml", "liver_test_coarse.yaml",
+                                     {{"search_lead: auto", "search_lead: 0"}})
+            .string()},
        2,
        "prediction.search_lead must be >= 1"},
       {{kBin + "/inverse_sim", "run", "--config",
-        WriteEditedScenario(dir, "lead_word.yaml", "search_lead: auto", "search_lead: soon")},
+        testing::WriteEditedScenario(dir, "lead_word.yaml", "liver_test_coarse.yaml",
+                                     {{"search_lead: auto", "search_lead: soon"}})
+            .string()},
        2,
        "prediction.search_lead: expected an integer, got 'soon'"},
       {{kBin + "/inverse_sim", "run", "--config",
-        WriteEditedScenario(dir, "interval.yaml", "search_interval: 0", "search_interval: -5")},
+        testing::WriteEditedScenario(dir, "interval.yaml", "liver_test_coarse.yaml",
+                                     {{"search_interval: 0", "search_interval: -5"}})
+            .string()},
        2,
        "prediction.search_interval must be >= 0"},
   };

@@ -42,21 +42,7 @@ constexpr int kDomain = 44;
 // liver_test_coarse.yaml with absolute mesh paths and the given edits, written into dir
 fs::path WriteScenario(const fs::path& dir,
                        const std::vector<std::pair<std::string, std::string>>& edits) {
-  std::string text = ReadText(kScenario);
-  auto replace_all = [&](const std::string& from, const std::string& to) {
-    size_t at = 0, count = 0;
-    while ((at = text.find(from, at)) != std::string::npos) {
-      text.replace(at, from.size(), to);
-      at += to.size();
-      ++count;
-    }
-    return count;
-  };
-  EXPECT_EQ(replace_all("../meshes/", kSource + "/configs/meshes/"), 3u);
-  for (const auto& [from, to] : edits) EXPECT_GE(replace_all(from, to), 1u) << from;
-  const fs::path path = dir / "scenario.yaml";
-  std::ofstream(path) << text;
-  return path;
+  return testing::WriteEditedScenario(dir, "scenario.yaml", "liver_test_coarse.yaml", edits);
 }
 
 // one closed-loop run: inverse_sim and direct_sim on their own partition

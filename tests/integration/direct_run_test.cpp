@@ -34,22 +34,12 @@ const std::string kBin = NSIM_BIN_DIR;
 const std::string kSource = NSIM_SOURCE_DIR;
 const std::string kDdsConfig = kSource + "/configs/dds/local.xml";
 
-void Replace(std::string& text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  ASSERT_NE(at, std::string::npos) << from;
-  text.replace(at, from.size(), to);
-}
-
 // the default scenario with the coarse liver (absolute mesh paths) and the given edits
 fs::path WriteScenario(const fs::path& dir,
                        const std::vector<std::pair<std::string, std::string>>& edits) {
-  std::string text = ReadText(kSource + "/configs/scenarios/liver_breathing.yaml");
-  Replace(text, "../meshes/liver_2660.msh", kSource + "/configs/meshes/liver_700.msh");
-  Replace(text, "../meshes/skin_patch.msh", kSource + "/configs/meshes/skin_patch.msh");
-  for (const auto& [from, to] : edits) Replace(text, from, to);
-  const fs::path path = dir / "scenario.yaml";
-  std::ofstream(path) << text;
-  return path;
+  auto all = edits;
+  all.insert(all.begin(), {"liver_2660.msh", "liver_700.msh"});
+  return testing::WriteEditedScenario(dir, "scenario.yaml", "liver_breathing.yaml", all);
 }
 
 TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
@@ -92,7 +82,8 @@ TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
 
 TEST(DirectRun, BadScenarioExitsWithTwoAndNamesTheKey) {
   const fs::path dir = TempDir("direct_run_bad");
-  const fs::path scenario = WriteScenario(dir, {{"young_modulus: 5500", "young_modulus: abc"}});
+  const fs::path scenario =
+      WriteScenario(dir, {{"young_modulus: 5500      #", "young_modulus: abc      #"}});
   ChildProcess run({kBin + "/direct_sim", "run", "--config", scenario.string(), "--no-controller"},
                    (dir / "run.log").string());
   EXPECT_EQ(run.Wait(30.0), 2);

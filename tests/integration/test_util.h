@@ -1,6 +1,6 @@
 #pragma once
 // Small helpers shared by the integration tests: a fresh temporary folder, reading a file,
-// and building command lines.
+// edited copies of a scenario, and building command lines.
 
 #include <unistd.h>
 
@@ -8,7 +8,10 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 namespace nsim::testing {
 
@@ -27,6 +30,29 @@ inline std::string ReadText(const std::filesystem::path& path) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+/// Writes dir/name: the scenario configs/scenarios/<scenario> with its mesh paths made absolute
+/// and every occurrence of each edit's first string replaced by its second (an edit that
+/// matches nothing is a test failure). Returns the path.
+inline std::filesystem::path WriteEditedScenario(
+    const std::filesystem::path& dir, const std::string& name, const std::string& scenario,
+    const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = ReadText(NSIM_SOURCE_DIR "/configs/scenarios/" + scenario);
+  auto replace_all = [&](const std::string& from, const std::string& to) {
+    size_t at = 0, count = 0;
+    while ((at = text.find(from, at)) != std::string::npos) {
+      text.replace(at, from.size(), to);
+      at += to.size();
+      ++count;
+    }
+    return count;
+  };
+  EXPECT_GE(replace_all("../meshes/", NSIM_SOURCE_DIR "/configs/meshes/"), 2u) << scenario;
+  for (const auto& [from, to] : edits) EXPECT_GE(replace_all(from, to), 1u) << from;
+  const std::filesystem::path path = dir / name;
+  std::ofstream(path) << text;
+  return path;
 }
 
 /// a followed by b.
