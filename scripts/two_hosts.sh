@@ -41,27 +41,20 @@ bin="${NSIM_BUILD_DIR:-$root/build}/bin"
 out="${NSIM_RESULTS_DIR:-$root/results/two_hosts_$(date +%Y%m%d_%H%M%S)}"
 mkdir -p "$out"; out="$(realpath "$out")"
 
-tag="nsim$$"; ns1="${tag}a"; ns2="${tag}b"
+# shellcheck source=scripts/netns_pair.sh
+. "$root/scripts/netns_pair.sh"
+tag="nsim$$"
 pids=()
 cleanup() {
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
   for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
-  ip netns del "$ns1" 2>/dev/null || true
-  ip netns del "$ns2" 2>/dev/null || true
+  netns_pair_down
 }
 trap cleanup EXIT
 trap 'echo "two_hosts: interrupted"; exit 130' INT TERM
 
-ip netns add "$ns1"
-ip netns add "$ns2"
-ip link add "${tag}0" type veth peer name "${tag}1"
-ip link set "${tag}0" netns "$ns1"
-ip link set "${tag}1" netns "$ns2"
-ip -n "$ns1" addr add 10.77.0.1/24 dev "${tag}0"
-ip -n "$ns2" addr add 10.77.0.2/24 dev "${tag}1"
-for ns in "$ns1" "$ns2"; do ip -n "$ns" link set lo up; done
-ip -n "$ns1" link set "${tag}0" up
-ip -n "$ns2" link set "${tag}1" up
+netns_pair_up "$tag" || { echo "two_hosts: cannot make the two namespaces and their veth pair" >&2; exit 1; }
+ns1="$NETNS_A"; ns2="$NETNS_B"
 if [ "$loss" -gt 0 ]; then
   for ns in "$ns1" "$ns2"; do
     ip netns exec "$ns" nft add table inet nsim

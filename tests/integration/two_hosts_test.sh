@@ -5,29 +5,21 @@
 set -u
 bin="$1"; src="$2"
 tag="nsim$$"
-ns1="${tag}a"; ns2="${tag}b"
+. "$src/scripts/netns_pair.sh"
 dir="$(mktemp -d)"
 pids=()
 cleanup() {
   for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  ip netns del "$ns1" 2>/dev/null; ip netns del "$ns2" 2>/dev/null
+  netns_pair_down
   rm -rf "$dir"
 }
 trap cleanup EXIT
 
-if ! ip netns add "$ns1" 2>/dev/null; then
-  echo "SKIPPED: 'ip netns add' is not permitted here (needs root and CAP_SYS_ADMIN)"
+if ! netns_pair_up "$tag" 2>/dev/null; then
+  echo "SKIPPED: two network namespaces and a veth pair cannot be made here (needs root and CAP_SYS_ADMIN)"
   exit 77
 fi
-ip netns add "$ns2" || { echo "SKIPPED: cannot add a second namespace"; exit 77; }
-ip link add "${tag}0" type veth peer name "${tag}1" || { echo "SKIPPED: cannot make a veth pair"; exit 77; }
-ip link set "${tag}0" netns "$ns1"
-ip link set "${tag}1" netns "$ns2"
-ip -n "$ns1" addr add 10.77.0.1/24 dev "${tag}0"
-ip -n "$ns2" addr add 10.77.0.2/24 dev "${tag}1"
-for ns in "$ns1" "$ns2"; do ip -n "$ns" link set lo up; done
-ip -n "$ns1" link set "${tag}0" up
-ip -n "$ns2" link set "${tag}1" up
+ns1="$NETNS_A"; ns2="$NETNS_B"
 
 # 200 frames, 2 markers, 100 Hz
 awk 'BEGIN { print "t,m0_x,m0_y,m0_z,m1_x,m1_y,m1_z";
