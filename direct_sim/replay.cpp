@@ -16,20 +16,6 @@ namespace {
 
 constexpr double kSettleTimeout_s = 1.0;
 
-/// Waits until a process other than direct_sim publishes a running status; false on timeout.
-bool WaitForPeerRunning(transport::Reader<SimStatus>& reader, double timeout_s) {
-  const double end = MonotonicSeconds() + timeout_s;
-  std::vector<SimStatus> statuses;
-  while (MonotonicSeconds() < end) {
-    reader.Wait(0.02);
-    statuses.clear();
-    reader.Take(statuses);
-    for (const SimStatus& s : statuses)
-      if (s.sender != "direct_sim" && s.state == RunState::kRunning) return true;
-  }
-  return false;
-}
-
 }  // namespace
 
 int RunReplay(int argc, char** argv) {
@@ -79,7 +65,7 @@ int RunReplay(int argc, char** argv) {
     // the writer knowing the reader is not enough: the reader must know the writer too, or the
     // first frames are dropped; inverse_sim says so with a "running" status, other readers get
     // a fixed settle time
-    if (!WaitForPeerRunning(status_reader, kSettleTimeout_s) && !quiet)
+    if (!transport::WaitForPeerRunning(status_reader, "direct_sim", kSettleTimeout_s) && !quiet)
       std::printf("replay: no status from the reader's process; streaming after %.1f s\n",
                   kSettleTimeout_s);
   }

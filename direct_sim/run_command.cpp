@@ -33,6 +33,10 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+// longest wait for a controller's "running" status once its readers and writer are matched,
+// and for its acknowledgement of frame 0 (s)
+constexpr double kPeerSettle_s = 2.0;
+
 // true when `--name` appears on the command line (to let it override the scenario)
 bool GivenOnCommandLine(int argc, char** argv, const std::string& name) {
   const std::string flag = "--" + name;
@@ -115,10 +119,13 @@ class DirectRun {
     // lockstep: every answer is kept until taken (with latency_steps >= 2 the controller may
     // answer frame k - 1 before this process took the answer to k - 2; a keep-last-1 reader
     // would drop it and the run would depend on timing)
-    if (controller_)
+    if (controller_) {
       targets_ = std::make_unique<transport::Reader<RobotTarget>>(
           *participant_,
           s_.run.mode == RunMode::kLockstep ? transport::Qos::kLossless : transport::Qos::kTarget);
+      peer_status_ =
+          std::make_unique<transport::Reader<SimStatus>>(*participant_, transport::Qos::kStatus);
+    }
     status_.sender = "direct_sim";
   }
 
@@ -149,6 +156,12 @@ class DirectRun {
       if (!PublishFrame(k, t)) {
         exit_reason_ = "diverged";
         break;
+      }
+      // the controller has frame 0 before frame 1 can replace it in the writers' history
+      if (k == 0 && controller_) {
+        markers_->WaitForAcks(kPeerSettle_s);
+        robot_state_->WaitForAcks(kPeerSettle_s);
+        entry_->WaitForAcks(kPeerSettle_s);
       }
       const double step_start = MonotonicSeconds();
       const bool holding = CommandRobot(k, t, h);
@@ -201,15 +214,29 @@ class DirectRun {
   }
 
  private:
+  // Waits until the controller reads our frames and we its targets, then for its "running"
+  // status: its readers know our writers, so frame 0 is not dropped (a run whose controller
+  // missed frame 0 would differ from the same run that did not). A controller that never says
+  // so (not inverse_sim) gets kPeerSettle_s.
   bool WaitForController() {
     const double end = MonotonicSeconds() + s_.run.start_timeout;
     if (!markers_->WaitForReaders(1, s_.run.start_timeout)) return false;
-    // the reader must know our writer too, and we its target writer: wait for the match
-    while (MonotonicSeconds() < end && !InterruptRequested()) {
-      if (targets_->health().writers_matched > 0) return true;
-      targets_->Wait(0.05);
+    bool matched = false;
+    while (!matched && MonotonicSeconds() < end && !InterruptRequested()) {
+      matched = targets_->health().writers_matched > 0;
+      if (!matched) targets_->Wait(0.05);
     }
-    return false;
+    if (!matched) return false;
+    if (!transport::WaitForPeerRunning(*peer_status_, "direct_sim", kPeerSettle_s)) {
+      if (!quiet_)
+        std::printf("run: the controller sent no running status; starting after %.1f s\n",
+                    kPeerSettle_s);
+      return true;
+    }
+    // inverse_sim reads the robot state and entry point too: our writers must know its readers
+    robot_state_->WaitForReaders(1, kPeerSettle_s);
+    entry_->WaitForReaders(1, kPeerSettle_s);
+    return true;
   }
 
   void PublishStatus(RunState state, const std::string& message) {
@@ -527,6 +554,7 @@ class DirectRun {
   std::unique_ptr<transport::Writer<EntryPoint>> entry_;
   std::unique_ptr<transport::Writer<SimStatus>> status_writer_;
   std::unique_ptr<transport::Reader<RobotTarget>> targets_;
+  std::unique_ptr<transport::Reader<SimStatus>> peer_status_;  // the controller's status
   std::ofstream csv_;
 
   int64_t steps_ = 0, steps_done_ = 0;

@@ -194,7 +194,8 @@ int RunInverseSim(int argc, char** argv) {
 
   SimStatus own;
   own.sender = "inverse_sim";
-  own.state = RunState::kRunning;
+  // "starting" until each reader has matched direct_sim's writer (transport::WaitForPeerRunning)
+  own.state = RunState::kStarting;
   own.message = "waiting for direct_sim";
   status_writer.Write(own);
 
@@ -222,6 +223,12 @@ int RunInverseSim(int argc, char** argv) {
   std::vector<SimStatus> statuses;
   std::vector<Eigen::Vector3d> fit_now;
   bool answered_last = false;
+  // once direct_sim has finished: the frames it sent last are still answered (their samples
+  // may arrive after its status), up to its last sequence number or for at most 1 s
+  bool finishing = false;
+  uint64_t final_seq = 0;
+  int64_t last_answered_seq = -1;
+  double finish_deadline = 0.0;
   while (true) {
     // wait for a frame, or for the robot state of a frame already queued
     if (queue.empty()) {
@@ -232,6 +239,13 @@ int RunInverseSim(int argc, char** argv) {
     }
     answered_last = false;
     const double now = MonotonicSeconds();
+    if (own.state == RunState::kStarting && marker_reader.health().writers_matched > 0 &&
+        robot_reader.health().writers_matched > 0 && entry_reader.health().writers_matched > 0) {
+      own.state = RunState::kRunning;
+      own.stamp.seq++;
+      own.message = "readers matched";
+      status_writer.Write(own);
+    }
     robot_samples.clear();
     robot_reader.Take(robot_samples);
     for (const RobotState& r : robot_samples) robots[r.stamp.seq] = r;
@@ -305,6 +319,7 @@ int RunInverseSim(int argc, char** argv) {
         if (i < answer) ++skipped_frames;
       }
       const MarkerFrame frame = queue[answer];
+      last_answered_seq = static_cast<int64_t>(frame.stamp.seq);
       queue.erase(queue.begin(), queue.begin() + answer + 1);
       robots.erase(robots.begin(), robots.upper_bound(frame.stamp.seq));
       const auto entry_it = entries.upper_bound(frame.stamp.seq);
@@ -372,11 +387,14 @@ int RunInverseSim(int argc, char** argv) {
     }
     statuses.clear();
     status_reader.Take(statuses);
-    bool finished = false;
     for (const SimStatus& s : statuses) {
       if (s.sender == "direct_sim") {
         seen_direct = true;
-        if (s.state == RunState::kFinished || s.state == RunState::kFailed) finished = true;
+        if (!finishing && (s.state == RunState::kFinished || s.state == RunState::kFailed)) {
+          finishing = true;
+          final_seq = s.last_seq;
+          finish_deadline = now + 1.0;
+        }
       }
     }
     if (now - last_status_at > 0.5) {
@@ -396,7 +414,8 @@ int RunInverseSim(int argc, char** argv) {
         std::fflush(stdout);
       }
     }
-    if (finished) {
+    if (finishing && (last_answered_seq >= static_cast<int64_t>(final_seq) ||
+                      now > finish_deadline)) {
       ending = "direct_finished";
       exit_code = 0;
       break;

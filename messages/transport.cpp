@@ -2,6 +2,7 @@
 
 #include <dds/dds.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <stdexcept>
 
@@ -27,8 +28,14 @@ dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
   const int depth = profile == Qos::kLossless ? c.lossless_depth : 1;
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
-  dds_qset_durability(
-      q, profile == Qos::kStatus ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+  // Writers offer transient-local; status and lossless readers request it. A volatile reader
+  // may drop a sample that arrives before the writer's first heartbeat even though the two are
+  // matched (it then starts at the heartbeat's next sequence number): frame 0 of a run could be
+  // lost. A transient-local reader asks for what it missed instead. Offering it on every
+  // writer keeps every reader-writer pair compatible.
+  const bool transient_local = writer || profile == Qos::kStatus || profile == Qos::kLossless;
+  dds_qset_durability(q,
+                      transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
   // a writer asserts liveliness within its lease; a reader accepts any lease, so processes
   // with different leases still match and each writer's own lease decides when it is dead
   dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC,
@@ -224,5 +231,19 @@ template class Reader<RobotState>;
 template class Reader<EntryPoint>;
 template class Reader<RobotTarget>;
 template class Reader<SimStatus>;
+
+bool WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self, double timeout_s) {
+  const double end = MonotonicSeconds() + timeout_s;
+  std::vector<SimStatus> statuses;
+  while (true) {
+    statuses.clear();
+    reader.Take(statuses);
+    for (const SimStatus& s : statuses)
+      if (s.sender != self && s.state == RunState::kRunning) return true;
+    const double left = end - MonotonicSeconds();
+    if (left <= 0) return false;
+    reader.Wait(std::min(0.02, left));
+  }
+}
 
 }  // namespace nsim::transport

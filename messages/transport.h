@@ -32,14 +32,16 @@ struct TransportConfig {
 
 /// QoS profiles.
 enum class Qos {
-  kStateStream,  ///< MarkerFrame, RobotState, EntryPoint: reliable, keep-last 1, volatile
-  kTarget,       ///< RobotTarget: reliable, keep-last 1, volatile
+  kStateStream,  ///< MarkerFrame, RobotState, EntryPoint: reliable, keep-last 1
+  kTarget,       ///< RobotTarget: reliable, keep-last 1
   kStatus,       ///< SimStatus: reliable, keep-last 1, transient-local (late joiners get the last)
   kLossless,     ///< a stream where every sample matters (replay, recording): reliable,
-                 ///< keep-last lossless_depth on both sides, so a sample lost on the wire or
-                 ///< written before the reader synchronized can still be resent; a kLossless
-                 ///< reader also matches kStateStream writers (history is not negotiated)
+                 ///< keep-last lossless_depth on both sides, transient-local, so a sample lost
+                 ///< on the wire or written before the reader synchronized can still be resent;
+                 ///< a kLossless reader also matches kStateStream writers
 };
+/// Every writer offers transient-local durability (its last sample, or lossless_depth, for a
+/// reader that asks); kStateStream and kTarget readers do not ask for it.
 
 /// A DDS participant with one publisher and one subscriber in the configured partition.
 class Participant {
@@ -122,5 +124,11 @@ class Reader {
   int32_t reader_ = 0, waitset_ = 0;
   ReaderHealth health_;
 };
+
+/// Waits until a process other than `self` publishes a running status; false on timeout. A
+/// process says "running" once each of its readers has matched the writer it reads from: a
+/// writer matching a reader is not enough, since until the reader knows the writer it drops
+/// the writer's samples (the first frames of a run would be lost).
+bool WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self, double timeout_s);
 
 }  // namespace nsim::transport

@@ -1,5 +1,5 @@
 // In-process checks of the transport over loopback: delivery and order, QoS profiles,
-// late-joiner status, dropped invalid samples, and health when a writer goes away.
+// late-joiner status, the peer's running status, dropped invalid samples, and health when a writer goes away.
 #include "messages/transport.h"
 
 #include <gtest/gtest.h>
@@ -83,6 +83,27 @@ TEST(Transport, LateJoinerGetsTheLastStatus) {
   ASSERT_EQ(got.size(), 1u);  // keep-last 1: only the newest
   EXPECT_EQ(got[0].state, RunState::kFinished);
   EXPECT_EQ(got[0].last_seq, 12u);
+}
+
+TEST(Transport, PeerRunningIsAnotherProcessSayingRunning) {
+  Participant p(LoopbackConfig());
+  Writer<SimStatus> writer(p, Qos::kStatus);
+  Reader<SimStatus> reader(p, Qos::kStatus);
+  ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
+  SimStatus s;
+  s.sender = "direct_sim";
+  s.state = RunState::kRunning;
+  writer.Write(s);  // our own status does not count
+  EXPECT_FALSE(WaitForPeerRunning(reader, "direct_sim", 0.2));
+  s.sender = "inverse_sim";
+  s.state = RunState::kStarting;  // its readers have not matched yet
+  writer.Write(s);
+  EXPECT_FALSE(WaitForPeerRunning(reader, "direct_sim", 0.2));
+  s.state = RunState::kRunning;
+  writer.Write(s);
+  const double start = MonotonicSeconds();
+  EXPECT_TRUE(WaitForPeerRunning(reader, "direct_sim", 5.0));
+  EXPECT_LT(MonotonicSeconds() - start, 5.0);
 }
 
 TEST(Transport, InvalidSamplesAreDroppedAndCounted) {
