@@ -67,6 +67,7 @@ class PredictionScore {
     if (pred_sq_.size() != p.size()) {
       pred_sq_.assign(p.size(), 0.0);
       base_sq_.assign(p.size(), 0.0);
+      pred_sum_.assign(p.size(), Eigen::Vector3d::Zero());
     }
     while (!pending_.empty() && pending_.front().t_for <= t + 1e-9) {
       const Pending& e = pending_.front();
@@ -76,6 +77,7 @@ class PredictionScore {
         for (size_t m = 0; m < p.size(); ++m) {
           const Eigen::Vector3d truth = (1.0 - a) * last_p_[m] + a * p[m];
           pred_sq_[m] += (e.predicted[m] - truth).squaredNorm();
+          pred_sum_[m] += e.predicted[m] - truth;
           base_sq_[m] += (e.measured[m] - truth).squaredNorm();
         }
         ++scored_;
@@ -99,6 +101,15 @@ class PredictionScore {
       out.push_back(scored_ ? 1e3 * std::sqrt(pred_sq_[m] / scored_) : 0.0);
     return out;
   }
+  // mean prediction error per marker, world axes (mm): a biased predictor shifts the mean
+  nlohmann::json BiasMm() const {
+    nlohmann::json out = nlohmann::json::array();
+    for (const Eigen::Vector3d& sum : pred_sum_) {
+      const Eigen::Vector3d mean = scored_ ? Eigen::Vector3d(1e3 * sum / scored_) : Eigen::Vector3d::Zero();
+      out.push_back({mean.x(), mean.y(), mean.z()});
+    }
+    return out;
+  }
   uint64_t scored() const { return scored_; }
 
  private:
@@ -108,6 +119,7 @@ class PredictionScore {
   };
   std::deque<Pending> pending_;
   std::vector<double> pred_sq_, base_sq_;
+  std::vector<Eigen::Vector3d> pred_sum_;
   double last_t_ = 0.0;
   std::vector<Eigen::Vector3d> last_p_;
   bool has_last_ = false;
@@ -456,6 +468,7 @@ int RunInverseSim(int argc, char** argv) {
         {"frame_sent_to_target_sent", answer_latency.Json()}}},
       {"nrms_percent", score.NrmsPercent()},
       {"prediction_rms_mm", score.RmsMm()},
+      {"prediction_bias_mm", score.BiasMm()},
       {"predictions_scored", score.scored()},
       {"settings",
        {{"config", scenario.source},
