@@ -108,12 +108,15 @@ class DirectRun {
     }
 
     participant_ = std::make_unique<transport::Participant>(transport);
-    markers_ = std::make_unique<transport::Writer<MarkerFrame>>(*participant_,
-                                                                transport::Qos::kStateStream);
-    robot_state_ = std::make_unique<transport::Writer<RobotState>>(*participant_,
-                                                                   transport::Qos::kStateStream);
-    entry_ = std::make_unique<transport::Writer<EntryPoint>>(*participant_,
-                                                             transport::Qos::kStateStream);
+    // lockstep: every frame is kept until acknowledged (frame k + 1 is written before frame k
+    // is acknowledged, and with keep-last 1 a frame lost on the wire could not be resent: the
+    // loop would wait for it until lockstep_timeout); realtime: only the newest state matters
+    const transport::Qos state_qos = s_.run.mode == RunMode::kLockstep
+                                         ? transport::Qos::kLossless
+                                         : transport::Qos::kStateStream;
+    markers_ = std::make_unique<transport::Writer<MarkerFrame>>(*participant_, state_qos);
+    robot_state_ = std::make_unique<transport::Writer<RobotState>>(*participant_, state_qos);
+    entry_ = std::make_unique<transport::Writer<EntryPoint>>(*participant_, state_qos);
     status_writer_ =
         std::make_unique<transport::Writer<SimStatus>>(*participant_, transport::Qos::kStatus);
     // lockstep: every answer is kept until taken (with latency_steps >= 2 the controller may
