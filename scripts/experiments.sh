@@ -5,7 +5,7 @@
 # prediction on and off, and optionally bevel on/off and 6-DoF Cartesian vs 7-DoF iiwa.
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
-#                          [--latency-steps N] [--bevel] [--dof7] [--no-build]
+#                          [--latency-steps N] [--gain K] [--bevel] [--dof7] [--no-build]
 #   scripts/experiments.sh --replay MARKERS.csv [--horizon 0.1,0.2] [--no-build]
 #
 # Closed loop: writes results/experiments_<date>/ (or $NSIM_RESULTS_DIR): runs.csv (one row per
@@ -13,6 +13,8 @@
 # also printed), final_error.png and distance_<setting>.png (run 0), and every run's folders.
 # The default scenario is configs/scenarios/liver_test_coarse.yaml (liver_700 both sides), the
 # default duration 20 s (the steady-state window, the last 20 %, is one breathing period).
+# --gain K sets the control gains k (eq. 3.9) of every setting: the scenarios' 0.1 suits a
+# 1-step latency; with --latency-steps 5 use --gain 0.5 (README, Limitations).
 #
 # --replay: the recorded marker stream is replayed by direct_sim into inverse_sim record over
 # DDS (open loop: no robot, no controller), the recording is checked against the stream, and
@@ -21,7 +23,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_test_coarse.yaml"; duration=20
-latency=1; bevel=0; dof7=0; build=1; replay=""; horizon="0.1,0.2,0.4"
+latency=1; gain=""; bevel=0; dof7=0; build=1; replay=""; horizon="0.1,0.2,0.4"
 usage() { sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; }
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -30,6 +32,7 @@ while [ $# -gt 0 ]; do
     --scenario) scenario="$(realpath "$2")"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
     --latency-steps) latency="$2"; shift 2 ;;
+    --gain) gain="$2"; shift 2 ;;
     --bevel) bevel=1; shift ;;
     --dof7) dof7=1; shift ;;
     --replay) replay="$(realpath "$2")"; shift 2 ;;
@@ -43,6 +46,8 @@ done
 [[ "$seed" =~ ^[0-9]+$ ]] || { echo "experiments: --seed must be an integer >= 0, got '$seed'" >&2; exit 2; }
 [[ "$latency" =~ ^[0-9]+$ ]] || { echo "experiments: --latency-steps must be an integer >= 0" >&2; exit 2; }
 [ -f "$scenario" ] || { echo "experiments: no such scenario: $scenario" >&2; exit 2; }
+[ -z "$gain" ] || [[ "$gain" =~ ^(0?\.[0-9]*[1-9][0-9]*|1(\.0*)?)$ ]] \
+  || { echo "experiments: --gain must be a number in (0, 1], got '$gain'" >&2; exit 2; }
 
 if [ "$build" = 1 ]; then
   "$root/scripts/setup.sh"
@@ -90,10 +95,16 @@ fi
 
 # ---- closed-loop batch ----
 # the scenario with absolute mesh paths, and its variants (bevel, iiwa)
+# --gain K replaces the controller's gains (position, angle, entry) in every variant
+gain_expr=()
+[ -z "$gain" ] || gain_expr=(-e "s|^\(  gains:\).*|\1 {position: $gain, angle: $gain, entry: $gain}|")
 variant() {  # variant NAME SED-EXPRESSION...
   local name="$1"; shift
   local dir; dir="$(dirname "$scenario")"
-  sed -e "s|\.\./meshes/|$(realpath "$dir/../meshes")/|g" "$@" "$scenario" > "$out/scenario_$name.yaml"
+  sed -e "s|\.\./meshes/|$(realpath "$dir/../meshes")/|g" "$@" "${gain_expr[@]}" "$scenario" > "$out/scenario_$name.yaml"
+  if [ -n "$gain" ] && ! grep -q "^  gains: {position: $gain," "$out/scenario_$name.yaml"; then
+    echo "experiments: cannot set the gains in $scenario (no '  gains:' line)" >&2; exit 2
+  fi
   echo "$out/scenario_$name.yaml"
 }
 base="$(variant base -e 's|^\(  mode:\).*|\1 lockstep|')"
