@@ -105,7 +105,8 @@ class PredictionScore {
   nlohmann::json BiasMm() const {
     nlohmann::json out = nlohmann::json::array();
     for (const Eigen::Vector3d& sum : pred_sum_) {
-      const Eigen::Vector3d mean = scored_ ? Eigen::Vector3d(1e3 * sum / scored_) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3d mean =
+          scored_ ? Eigen::Vector3d(1e3 * sum / scored_) : Eigen::Vector3d::Zero();
       out.push_back({mean.x(), mean.y(), mean.z()});
     }
     return out;
@@ -426,8 +427,8 @@ int RunInverseSim(int argc, char** argv) {
         std::fflush(stdout);
       }
     }
-    if (finishing && (last_answered_seq >= static_cast<int64_t>(final_seq) ||
-                      now > finish_deadline)) {
+    if (finishing &&
+        (last_answered_seq >= static_cast<int64_t>(final_seq) || now > finish_deadline)) {
       ending = "direct_finished";
       exit_code = 0;
       break;

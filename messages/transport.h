@@ -15,16 +15,16 @@ namespace nsim::transport {
 
 /// How a process joins the DDS data space.
 struct TransportConfig {
-  int domain_id = 0;                ///< DDS domain id, 0..232
-  std::string partition = "nsim";   ///< DDS partition; processes only talk within one partition
-  std::string config_file;          ///< Cyclone XML file; empty: Cyclone's default (CYCLONEDDS_URI)
+  int domain_id = 0;               ///< DDS domain id, 0..232
+  std::string partition = "nsim";  ///< DDS partition; processes only talk within one partition
+  std::string config_file;         ///< Cyclone XML file; empty: Cyclone's default (CYCLONEDDS_URI)
   /// Writers assert liveliness within this lease (s); a reader reports a writer dead when it
   /// expires. Not much below 1 s on a loaded machine: a starved process may miss a short lease
   /// (seen at 0.5 s with both simulations and a build on 2 cores). The robot does not depend on
   /// it to stop: it holds on its own when no valid target came for safety.hold_timeout.
   double liveliness_lease_s = 2.0;
-  double deadline_s = 2.0;          ///< max period between samples of a stream (s); 0 = no deadline
-  int lossless_depth = 4096;        ///< history depth of the kLossless profile (samples)
+  double deadline_s = 2.0;    ///< max period between samples of a stream (s); 0 = no deadline
+  int lossless_depth = 4096;  ///< history depth of the kLossless profile (samples)
 
   /// Throws InputError naming the field when a value is out of range or the file is missing.
   void Validate() const;

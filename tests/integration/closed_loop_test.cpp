@@ -9,12 +9,12 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>

@@ -1,5 +1,6 @@
 // In-process checks of the transport over loopback: delivery and order, QoS profiles,
-// late-joiner status, the peer's running status, dropped invalid samples, and health when a writer goes away.
+// late-joiner status, the peer's running status, dropped invalid samples, and health when a
+// writer goes away.
 #include "messages/transport.h"
 
 #include <gtest/gtest.h>
