@@ -7,15 +7,19 @@ function(nsim_set_warnings target)
     $<$<AND:$<COMPILE_LANGUAGE:CXX>,$<BOOL:${NSIM_WERROR}>>:-Werror>)
 endfunction()
 
-# nsim_add_library(<name> SOURCES ... DEPS ...)
+# nsim_add_library(<name> SOURCES ... DEPS ... [PRIVATE_DEPS ...])
 # Creates the static library nsim_<name> with the alias nsim::<name>; the include root is the
-# repository, so headers are included as "common/<name>/file.h".
+# repository, so headers are included as "common/<name>/file.h". DEPS are public (used by the
+# headers), PRIVATE_DEPS only by the sources.
 function(nsim_add_library name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(nsim_${name} STATIC ${ARG_SOURCES})
   add_library(nsim::${name} ALIAS nsim_${name})
   target_include_directories(nsim_${name} PUBLIC ${PROJECT_SOURCE_DIR})
   target_link_libraries(nsim_${name} PUBLIC ${ARG_DEPS})
+  if(ARG_PRIVATE_DEPS)
+    target_link_libraries(nsim_${name} PRIVATE ${ARG_PRIVATE_DEPS})
+  endif()
   set_target_properties(nsim_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   nsim_set_warnings(nsim_${name})
 endfunction()

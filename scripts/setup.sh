@@ -9,7 +9,7 @@ PACKAGES=(
   libsuitesparse-dev libopenblas-dev
   cyclonedds-dev cyclonedds-tools
   libopencv-dev
-  libyaml-cpp-dev nlohmann-json3-dev
+  libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gmsh
   python3-matplotlib
