@@ -1,66 +1,181 @@
 #include "common/core/cli.h"
 
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include "common/core/error.h"
 
 namespace nsim {
+namespace {
+
+// A value's check: what is wrong with the text, "" when it passes. CLI11 prefixes the text with
+// the option ("--rate: ...").
+using Check = std::function<std::string(const std::string& text)>;
+
+std::string NumberProblem(const std::string& text, double* value) {
+  errno = 0;
+  char* end = nullptr;
+  *value = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE ||
+      !std::isfinite(*value))
+    return Str("expected a finite number, got '", text, "'");
+  return "";
+}
+
+std::string IntegerProblem(const std::string& text, long* value) {
+  errno = 0;
+  char* end = nullptr;
+  *value = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    return Str("expected an integer, got '", text, "'");
+  return "";
+}
+
+// --help: the usage line and the summary, then one line per option (CLI11 lays out the rest)
+class HelpFormatter : public CLI::Formatter {
+ public:
+  HelpFormatter(std::string usage, std::string summary)
+      : usage_(std::move(usage)), summary_(std::move(summary)) {
+    column_width(28);
+  }
+  std::string make_description(const CLI::App*) const override { return ""; }
+  std::string make_usage(const CLI::App*, std::string) const override {
+    return "usage: " + usage_ + "\n\n" + summary_ + "\n";
+  }
+
+ private:
+  std::string usage_, summary_;
+};
+
+// The first argument no option took: an unknown option or a stray positional. It is reported
+// before any other error, being the likely cause (a misspelt option leaves its value and the
+// option it should have been behind).
+void ThrowIfLeftOver(const std::vector<std::string>& left) {
+  if (left.empty()) return;
+  const std::string& arg = left.front();
+  const bool looks_like_option = arg.size() > 1 && arg[0] == '-' && arg != "--" &&
+                                 !std::isdigit(static_cast<unsigned char>(arg[1]));
+  if (looks_like_option)
+    throw InputError(Str("unknown option ", arg.substr(0, arg.find('=')), " (see --help)"));
+  throw InputError(Str("unexpected argument '", arg, "'"));
+}
+
+}  // namespace
+
+struct CommandLine::Impl {
+  struct Declared {
+    CLI::Option* option;
+    std::string value_name, default_value;
+    bool is_flag;
+  };
+
+  Impl(std::string usage, std::string summary) {
+    app.formatter(std::make_shared<HelpFormatter>(std::move(usage), std::move(summary)));
+    app.option_defaults()->group("options")->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+    app.set_help_flag("-h,--help", "show this help");
+    app.allow_extras();  // left-over arguments are reported by ThrowIfLeftOver
+  }
+
+  // Declares `--name VALUE`; the help line gets "(required)" and the default.
+  void AddValue(const std::string& name, const std::string& value_name, std::string help,
+                const std::string& default_value, bool required, const Check& check) {
+    NSIM_CHECK(!declared.count(name), "option --", name, " declared twice");
+    NSIM_CHECK(!check || default_value.empty() || check(default_value).empty(), "the default of --",
+               name, ": ", check ? check(default_value) : "");
+    if (required) help += " (required)";
+    if (!default_value.empty()) help += " [default: " + default_value + "]";
+    const std::string& text = help;  // const: a non-const string would be taken as the target
+    CLI::Option* option = app.add_option("--" + name, text)->option_text(value_name);
+    option->required(required);
+    if (check)
+      option->check(CLI::Validator([check](std::string& value) { return check(value); }, ""));
+    declared[name] = {option, value_name, default_value, false};
+    order.push_back(name);
+  }
+
+  const Declared& Get(const std::string& name) const {
+    const auto it = declared.find(name);
+    NSIM_CHECK(it != declared.end(), "option --", name, " was never declared");
+    return it->second;
+  }
+
+  // The text of a CLI11 error, naming the option (CLI11's own texts are not all that clear).
+  std::string Explain(const CLI::ParseError& error) const {
+    if (dynamic_cast<const CLI::RequiredError*>(&error)) {
+      for (const auto& name : order) {
+        const Declared& d = declared.at(name);
+        if (d.option->get_required() && d.option->count() == 0)
+          return Str("missing required option --", name, " ", d.value_name);
+      }
+    }
+    const std::string what = error.what();
+    if (dynamic_cast<const CLI::ArgumentMismatch*>(&error)) {
+      // a value missing after `--name` or a value given to a flag (`--name=1`); CLI11's text
+      // begins with the option, "--name: " or (a flag) "name was given ..."
+      const std::string said = what.rfind("--", 0) == 0 ? what.substr(2) : what;
+      for (const auto& [name, d] : declared) {
+        if (said.rfind(name, 0) != 0 || said.size() == name.size()) continue;
+        if (said[name.size()] != ':' && said[name.size()] != ' ') continue;
+        if (d.is_flag) return Str("option --", name, " takes no value");
+        return Str("option --", name, " expects a value ", d.value_name);
+      }
+    }
+    return what;  // a failed check: "--name: <what the check says>"
+  }
+
+  CLI::App app;
+  std::map<std::string, Declared> declared;
+  std::vector<std::string> order;  // of declaration
+};
 
 CommandLine::CommandLine(std::string usage, std::string summary)
-    : usage_(std::move(usage)), summary_(std::move(summary)) {}
+    : impl_(std::make_unique<Impl>(std::move(usage), std::move(summary))) {}
+CommandLine::CommandLine(CommandLine&&) noexcept = default;
+CommandLine& CommandLine::operator=(CommandLine&&) noexcept = default;
+CommandLine::~CommandLine() = default;
 
 CommandLine& CommandLine::Option(const std::string& name, const std::string& value_name,
                                  const std::string& help, const std::string& default_value,
                                  bool required) {
-  order_.push_back(name);
-  specs_[name] = Spec{value_name, help, default_value, false, required};
+  impl_->AddValue(name, value_name, help, default_value, required, nullptr);
   return *this;
 }
 
 CommandLine& CommandLine::Flag(const std::string& name, const std::string& help) {
-  order_.push_back(name);
-  specs_[name] = Spec{"", help, "", true, false};
+  NSIM_CHECK(!impl_->declared.count(name), "option --", name, " declared twice");
+  // no `--name=value`: a flag's value would be silently read as true or false
+  CLI::Option* option = impl_->app.add_flag("--" + name, help)->disable_flag_override();
+  impl_->declared[name] = {option, "", "", true};
+  impl_->order.push_back(name);
   return *this;
 }
 
 void CommandLine::Parse(int argc, char** argv, int first) {
-  for (int i = first; i < argc; ++i) {
-    std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
+  std::vector<std::string> args(argv + std::min(first, argc), argv + argc);
+  std::reverse(args.begin(), args.end());  // CLI11 takes them from the back
+  CLI::App& app = impl_->app;
+  try {
+    app.parse(args);
+  } catch (const CLI::CallForHelp&) {
+    help_ = true;
+    return;
+  } catch (const CLI::ParseError& e) {
+    // --help wins over a bad value or a missing option (CLI11 checks values before --help)
+    if (app.get_help_ptr()->count() > 0) {
       help_ = true;
-      continue;
+      return;
     }
-    if (arg.rfind("--", 0) != 0) throw InputError(Str("unexpected argument '", arg, "'"));
-    std::string name = arg.substr(2), value;
-    bool inline_value = false;
-    if (const auto eq = name.find('='); eq != std::string::npos) {
-      value = name.substr(eq + 1);
-      name = name.substr(0, eq);
-      inline_value = true;
-    }
-    const auto it = specs_.find(name);
-    if (it == specs_.end()) throw InputError(Str("unknown option --", name, " (see --help)"));
-    if (it->second.is_flag) {
-      if (inline_value) throw InputError(Str("option --", name, " takes no value"));
-      values_[name] = "1";
-      continue;
-    }
-    if (!inline_value) {
-      if (i + 1 >= argc)
-        throw InputError(Str("option --", name, " expects a value ", it->second.value_name));
-      value = argv[++i];
-    }
-    values_[name] = value;
+    ThrowIfLeftOver(app.remaining());
+    throw InputError(impl_->Explain(e));
   }
-  if (help_) return;
-  for (const auto& [name, spec] : specs_) {
-    if (spec.required && !values_.count(name))
-      throw InputError(Str("missing required option --", name, " ", spec.value_name));
-  }
+  ThrowIfLeftOver(app.remaining());
 }
 
 bool CommandLine::ParseOrPrintHelp(int argc, char** argv, int first) {
@@ -69,35 +184,19 @@ bool CommandLine::ParseOrPrintHelp(int argc, char** argv, int first) {
   return !help_;
 }
 
-std::string CommandLine::Help() const {
-  std::ostringstream out;
-  out << "usage: " << usage_ << "\n\n" << summary_ << "\n\noptions:\n";
-  for (const auto& name : order_) {
-    const Spec& s = specs_.at(name);
-    std::string left = "  --" + name + (s.is_flag ? "" : " " + s.value_name);
-    out << left;
-    if (left.size() < 28)
-      out << std::string(28 - left.size(), ' ');
-    else
-      out << "\n" << std::string(28, ' ');
-    out << s.help;
-    if (s.required) out << " (required)";
-    if (!s.default_value.empty()) out << " [default: " << s.default_value << "]";
-    out << "\n";
-  }
-  out << "  --help                    show this help\n";
-  return out.str();
-}
+std::string CommandLine::Help() const { return impl_->app.help(); }
 
 bool CommandLine::Has(const std::string& name) const {
-  NSIM_CHECK(specs_.count(name), "option --", name, " was never declared");
-  return values_.count(name) || !specs_.at(name).default_value.empty();
+  return Given(name) || !impl_->Get(name).default_value.empty();
+}
+
+bool CommandLine::Given(const std::string& name) const {
+  return impl_->Get(name).option->count() > 0;
 }
 
 std::string CommandLine::GetString(const std::string& name) const {
-  NSIM_CHECK(specs_.count(name), "option --", name, " was never declared");
-  const auto it = values_.find(name);
-  return it != values_.end() ? it->second : specs_.at(name).default_value;
+  const Impl::Declared& d = impl_->Get(name);
+  return d.option->count() > 0 ? d.option->as<std::string>() : d.default_value;
 }
 
 double CommandLine::GetDouble(const std::string& name) const {
@@ -108,26 +207,25 @@ long CommandLine::GetInt(const std::string& name) const {
   return ParseInt(GetString(name), "--" + name);
 }
 
-bool CommandLine::GetFlag(const std::string& name) const {
-  NSIM_CHECK(specs_.count(name) && specs_.at(name).is_flag, "--", name, " is not a flag");
-  return values_.count(name) > 0;
+bool CommandLine::GetFlag(const std::string& name) const { return GetCount(name) > 0; }
+
+int CommandLine::GetCount(const std::string& name) const {
+  const Impl::Declared& d = impl_->Get(name);
+  NSIM_CHECK(d.is_flag, "--", name, " is not a flag");
+  return static_cast<int>(d.option->count());
 }
 
 double ParseDouble(const std::string& text, const std::string& what) {
-  errno = 0;
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(v))
-    throw InputError(Str(what, ": expected a finite number, got '", text, "'"));
+  double v;
+  if (std::string problem = NumberProblem(text, &v); !problem.empty())
+    throw InputError(Str(what, ": ", problem));
   return v;
 }
 
 long ParseInt(const std::string& text, const std::string& what) {
-  errno = 0;
-  char* end = nullptr;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
-    throw InputError(Str(what, ": expected an integer, got '", text, "'"));
+  long v;
+  if (std::string problem = IntegerProblem(text, &v); !problem.empty())
+    throw InputError(Str(what, ": ", problem));
   return v;
 }
 

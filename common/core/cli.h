@@ -1,30 +1,36 @@
 #pragma once
 // A small command-line layer for the two executables: subcommands, --options with values,
 // --flags, generated --help, and the exit-code convention of DESIGN.md (0 success, 2 bad input
-// or usage, 1 runtime failure).
+// or usage, 1 runtime failure). Parsing is done by CLI11, which only cli.cpp includes; every
+// CLI11 error becomes an InputError that names the option.
 
 #include <functional>
-#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace nsim {
 
-/// The options of one subcommand. Values are kept as text and converted on access, with
-/// errors that name the option.
+/// The options of one subcommand, one declaration per option: the declaration gives the value's
+/// name, help text, default and check, and --help is generated from it. Values are kept as text
+/// and converted on access, with errors that name the option.
 class CommandLine {
  public:
   CommandLine(std::string usage, std::string summary);
+  CommandLine(CommandLine&&) noexcept;
+  CommandLine& operator=(CommandLine&&) noexcept;
+  ~CommandLine();
 
   /// Declares `--name VALUE`; `default_value` empty and `required` false means optional.
   CommandLine& Option(const std::string& name, const std::string& value_name,
                       const std::string& help, const std::string& default_value = "",
                       bool required = false);
-  /// Declares a boolean `--name`.
+  /// Declares a boolean `--name`; it may be repeated (GetCount).
   CommandLine& Flag(const std::string& name, const std::string& help);
 
-  /// Parses argv[first..argc). Throws InputError naming an unknown option, a missing value or
-  /// a missing required option (unless --help was given).
+  /// Parses argv[first..argc). Throws InputError naming an unknown option, a missing value, a
+  /// value that fails its check or a missing required option (unless --help was given). An
+  /// option given twice keeps the last value.
   void Parse(int argc, char** argv, int first);
 
   /// Parse, and when --help was given prints Help() to stdout and returns false (the command
@@ -35,20 +41,19 @@ class CommandLine {
   std::string Help() const;
 
   bool Has(const std::string& name) const;  ///< given on the command line or defaulted
+  /// Given on the command line (not defaulted): lets a command-line value override a value of
+  /// a scenario file while the default does not.
+  bool Given(const std::string& name) const;
   std::string GetString(const std::string& name) const;
   double GetDouble(const std::string& name) const;
   long GetInt(const std::string& name) const;
   bool GetFlag(const std::string& name) const;
+  /// How many times the flag `--name` was given.
+  int GetCount(const std::string& name) const;
 
  private:
-  struct Spec {
-    std::string value_name, help, default_value;
-    bool is_flag = false, required = false;
-  };
-  std::string usage_, summary_;
-  std::vector<std::string> order_;
-  std::map<std::string, Spec> specs_;
-  std::map<std::string, std::string> values_;
+  struct Impl;  // the CLI11 app and what each option was declared with
+  std::unique_ptr<Impl> impl_;
   bool help_ = false;
 };
 

@@ -65,6 +65,8 @@ TEST(CommandLine, BadInputNamesTheProblem) {
                    "--rate: expected a finite number, got 'fast'");
   ExpectInputError({"cmd", "--markers", "a", "--rate", "nan"}, "--rate: expected a finite number");
   ExpectInputError({"cmd", "--markers", "a", "stray"}, "unexpected argument 'stray'");
+  ExpectInputError({"cmd", "--markers", "a", "--", "stray"}, "unexpected argument '--'");
+  ExpectInputError({"cmd", "--markers", "a", "-7"}, "unexpected argument '-7'");
   ExpectInputError({"cmd", "--markers", "a", "--quiet=1"}, "--quiet takes no value");
 }
 
@@ -90,6 +92,54 @@ TEST(CommandLine, ParseOrPrintHelpTellsWhetherToRun) {
   Argv bad({"cmd"});
   CommandLine c = MakeCli();
   EXPECT_THROW(c.ParseOrPrintHelp(bad.argc(), bad.argv(), 1), InputError);
+}
+
+TEST(CommandLine, UnknownOptionIsReportedBeforeTheMissingRequiredOne) {
+  // a misspelt required option: its name is the useful message
+  ExpectInputError({"cmd", "--marker", "a"}, "unknown option --marker (see --help)");
+  ExpectInputError({"cmd", "--markers", "a", "--bogus=1"}, "unknown option --bogus (see --help)");
+}
+
+TEST(CommandLine, LastValueWinsAndNegativeNumbersAreValues) {
+  Argv a({"cmd", "--markers", "a", "--rate", "-2.5", "--markers", "b"});
+  CommandLine cli = MakeCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_EQ(cli.GetString("markers"), "b");
+  EXPECT_DOUBLE_EQ(cli.GetDouble("rate"), -2.5);
+}
+
+TEST(CommandLine, GivenTellsTheCommandLineFromTheDefault) {
+  Argv a({"cmd", "--markers=in.csv"});
+  CommandLine cli = MakeCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_TRUE(cli.Given("markers"));
+  EXPECT_FALSE(cli.Given("rate"));  // defaulted: a scenario value would stay
+  EXPECT_TRUE(cli.Has("rate"));
+  EXPECT_FALSE(cli.Given("quiet"));
+  Argv b({"cmd", "--markers", "in.csv", "--rate", "1.5", "--quiet"});
+  CommandLine given = MakeCli();
+  given.Parse(b.argc(), b.argv(), 1);
+  EXPECT_TRUE(given.Given("rate"));  // given, even with the default's value
+  EXPECT_TRUE(given.Given("quiet"));
+}
+
+TEST(CommandLine, FlagsCount) {
+  Argv a({"cmd", "--markers", "a", "--quiet", "--quiet"});
+  CommandLine cli = MakeCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_EQ(cli.GetCount("quiet"), 2);
+  EXPECT_TRUE(cli.GetFlag("quiet"));
+}
+
+TEST(CommandLine, HelpHasTheUsageTheSummaryAndEveryOption) {
+  const std::string help = MakeCli().Help();
+  EXPECT_EQ(help.rfind("usage: prog cmd\n\ntest\n", 0), 0u) << help;
+  EXPECT_NE(help.find("--markers FILE"), std::string::npos) << help;
+  EXPECT_NE(help.find("input (required)"), std::string::npos) << help;
+  EXPECT_NE(help.find("--rate X"), std::string::npos) << help;
+  EXPECT_NE(help.find("rate [default: 1.5]"), std::string::npos) << help;
+  EXPECT_NE(help.find("--quiet"), std::string::npos) << help;
+  EXPECT_NE(help.find("--help"), std::string::npos) << help;
 }
 
 TEST(RunSubcommands, ExitCodesFollowTheConvention) {
