@@ -38,6 +38,19 @@ std::string IntegerProblem(const std::string& text, long* value) {
   return "";
 }
 
+// "in [lo, hi]", ">= lo" or "<= hi" for the bounds that are not the type's own limits
+template <typename T>
+std::string RangeText(T lo, T hi, T lowest, T highest) {
+  if (lo != lowest && hi != highest) return Str("in [", lo, ", ", hi, "]");
+  return lo != lowest ? Str(">= ", lo) : Str("<= ", hi);
+}
+
+std::string Join(const std::vector<std::string>& items, const std::string& separator) {
+  std::string out;
+  for (const auto& item : items) out += (out.empty() ? "" : separator) + item;
+  return out;
+}
+
 // --help: the usage line and the summary, then one line per option (CLI11 lays out the rest)
 class HelpFormatter : public CLI::Formatter {
  public:
@@ -145,6 +158,52 @@ CommandLine& CommandLine::Option(const std::string& name, const std::string& val
                                  const std::string& help, const std::string& default_value,
                                  bool required) {
   impl_->AddValue(name, value_name, help, default_value, required, nullptr);
+  return *this;
+}
+
+CommandLine& CommandLine::Number(const std::string& name, const std::string& value_name,
+                                 const std::string& help, const std::string& default_value,
+                                 double min, double max, bool required) {
+  NSIM_CHECK(min <= max, "--", name, ": empty range");
+  const double lowest = -std::numeric_limits<double>::infinity(), highest = -lowest;
+  const Check check = [=](const std::string& text) -> std::string {
+    double v;
+    if (std::string problem = NumberProblem(text, &v); !problem.empty()) return problem;
+    if (v < min || v > max)
+      return Str("expected a number ", RangeText(min, max, lowest, highest), ", got ", text);
+    return "";
+  };
+  impl_->AddValue(name, value_name, help, default_value, required, check);
+  return *this;
+}
+
+CommandLine& CommandLine::Integer(const std::string& name, const std::string& value_name,
+                                  const std::string& help, const std::string& default_value,
+                                  long min, long max, bool required) {
+  NSIM_CHECK(min <= max, "--", name, ": empty range");
+  const long lowest = std::numeric_limits<long>::min(), highest = std::numeric_limits<long>::max();
+  const Check check = [=](const std::string& text) -> std::string {
+    long v;
+    if (std::string problem = IntegerProblem(text, &v); !problem.empty()) return problem;
+    if (v < min || v > max)
+      return Str("expected an integer ", RangeText(min, max, lowest, highest), ", got ", text);
+    return "";
+  };
+  impl_->AddValue(name, value_name, help, default_value, required, check);
+  return *this;
+}
+
+CommandLine& CommandLine::Choice(const std::string& name, const std::string& value_name,
+                                 const std::string& help, std::vector<std::string> choices,
+                                 const std::string& default_value, bool required) {
+  NSIM_CHECK(!choices.empty(), "--", name, ": no choices");
+  const std::string listed = Join(choices, ", ");
+  const Check check = [choices = std::move(choices), listed](const std::string& text) {
+    if (std::find(choices.begin(), choices.end(), text) != choices.end()) return std::string();
+    return Str("expected one of ", listed, ", got '", text, "'");
+  };
+  impl_->AddValue(name, value_name, help + " (one of: " + listed + ")", default_value, required,
+                  check);
   return *this;
 }
 

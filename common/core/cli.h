@@ -5,6 +5,7 @@
 // CLI11 error becomes an InputError that names the option.
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,6 +26,24 @@ class CommandLine {
   CommandLine& Option(const std::string& name, const std::string& value_name,
                       const std::string& help, const std::string& default_value = "",
                       bool required = false);
+  /// Declares `--name VALUE` whose value must be a finite number in [min, max], checked when
+  /// parsing: "--rate: expected a finite number, got 'fast'", "--rate: expected a number in
+  /// [0, 10], got 12". Read it with GetDouble.
+  CommandLine& Number(const std::string& name, const std::string& value_name,
+                      const std::string& help, const std::string& default_value = "",
+                      double min = -std::numeric_limits<double>::infinity(),
+                      double max = std::numeric_limits<double>::infinity(), bool required = false);
+  /// Declares `--name N` whose value must be an integer in [min, max], checked when parsing:
+  /// "--domain: expected an integer, got 'x'". Read it with GetInt.
+  CommandLine& Integer(const std::string& name, const std::string& value_name,
+                       const std::string& help, const std::string& default_value = "",
+                       long min = std::numeric_limits<long>::min(),
+                       long max = std::numeric_limits<long>::max(), bool required = false);
+  /// Declares `--name VALUE` whose value must be one of `choices`, checked when parsing:
+  /// "--mode: expected one of realtime, lockstep, got 'fast'". The help lists the choices.
+  CommandLine& Choice(const std::string& name, const std::string& value_name,
+                      const std::string& help, std::vector<std::string> choices,
+                      const std::string& default_value = "", bool required = false);
   /// Declares a boolean `--name`; it may be repeated (GetCount).
   CommandLine& Flag(const std::string& name, const std::string& help);
 

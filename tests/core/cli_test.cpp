@@ -131,6 +131,69 @@ TEST(CommandLine, FlagsCount) {
   EXPECT_TRUE(cli.GetFlag("quiet"));
 }
 
+// Typed options: the value is checked when parsing, before any Get.
+CommandLine MakeTypedCli() {
+  CommandLine cli("prog cmd", "typed");
+  cli.Choice("mode", "MODE", "how to run", {"realtime", "lockstep"}, "realtime")
+      .Number("gain", "K", "control gain", "0.1", 0.0, 1.0)
+      .Number("offset", "M", "any offset (m)")
+      .Integer("domain", "N", "DDS domain id", "0", 0, 232)
+      .Integer("seed", "N", "random seed", "1", 0)
+      .Integer("steps", "N", "step count");
+  return cli;
+}
+
+void ExpectTypedError(std::vector<std::string> args, const std::string& message) {
+  Argv a(std::move(args));
+  CommandLine cli = MakeTypedCli();
+  try {
+    cli.Parse(a.argc(), a.argv(), 1);
+    FAIL() << "expected InputError '" << message << "'";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), message);
+  }
+}
+
+TEST(CommandLine, TypedOptionsReadTheirValues) {
+  Argv a({"cmd", "--mode", "lockstep", "--gain=0.5", "--offset", "-0.25", "--domain", "7",
+          "--steps", "-3"});
+  CommandLine cli = MakeTypedCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_EQ(cli.GetString("mode"), "lockstep");
+  EXPECT_DOUBLE_EQ(cli.GetDouble("gain"), 0.5);
+  EXPECT_DOUBLE_EQ(cli.GetDouble("offset"), -0.25);
+  EXPECT_EQ(cli.GetInt("domain"), 7);
+  EXPECT_EQ(cli.GetInt("seed"), 1);  // the default
+  EXPECT_EQ(cli.GetInt("steps"), -3);
+  Argv none({"cmd"});
+  CommandLine defaults = MakeTypedCli();
+  defaults.Parse(none.argc(), none.argv(), 1);
+  EXPECT_EQ(defaults.GetString("mode"), "realtime");
+  EXPECT_FALSE(defaults.Has("offset"));
+  EXPECT_FALSE(defaults.Given("mode"));
+}
+
+TEST(CommandLine, TypedOptionsRejectBadValuesWhenParsing) {
+  ExpectTypedError({"cmd", "--mode", "fast"},
+                   "--mode: expected one of realtime, lockstep, got 'fast'");
+  ExpectTypedError({"cmd", "--gain", "high"}, "--gain: expected a finite number, got 'high'");
+  ExpectTypedError({"cmd", "--gain", "inf"}, "--gain: expected a finite number, got 'inf'");
+  ExpectTypedError({"cmd", "--gain", "2"}, "--gain: expected a number in [0, 1], got 2");
+  ExpectTypedError({"cmd", "--domain", "x"}, "--domain: expected an integer, got 'x'");
+  ExpectTypedError({"cmd", "--domain", "1.5"}, "--domain: expected an integer, got '1.5'");
+  ExpectTypedError({"cmd", "--domain", "999"},
+                   "--domain: expected an integer in [0, 232], got 999");
+  ExpectTypedError({"cmd", "--seed", "-1"}, "--seed: expected an integer >= 0, got -1");
+  ExpectTypedError({"cmd", "--steps"}, "option --steps expects a value N");
+}
+
+TEST(CommandLine, HelpWinsOverABadValue) {
+  Argv a({"cmd", "--mode", "fast", "--help"});
+  CommandLine cli = MakeTypedCli();
+  cli.Parse(a.argc(), a.argv(), 1);
+  EXPECT_TRUE(cli.help_requested());
+}
+
 TEST(CommandLine, HelpHasTheUsageTheSummaryAndEveryOption) {
   const std::string help = MakeCli().Help();
   EXPECT_EQ(help.rfind("usage: prog cmd\n\ntest\n", 0), 0u) << help;
@@ -140,6 +203,11 @@ TEST(CommandLine, HelpHasTheUsageTheSummaryAndEveryOption) {
   EXPECT_NE(help.find("rate [default: 1.5]"), std::string::npos) << help;
   EXPECT_NE(help.find("--quiet"), std::string::npos) << help;
   EXPECT_NE(help.find("--help"), std::string::npos) << help;
+  const std::string typed = MakeTypedCli().Help();
+  EXPECT_NE(typed.find("--mode MODE"), std::string::npos) << typed;
+  EXPECT_NE(typed.find("how to run (one of: realtime, lockstep) [default: realtime]"),
+            std::string::npos)
+      << typed;
 }
 
 TEST(RunSubcommands, ExitCodesFollowTheConvention) {
