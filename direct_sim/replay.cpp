@@ -20,10 +20,10 @@ constexpr double kSettleTimeout_s = 1.0;
 
 int RunReplay(int argc, char** argv) {
   CommandLine cli("direct_sim replay --markers IN.csv [options]",
-                  "Publish a recorded marker stream (MarkerFrame) at its recorded timing.");
+                  "Publish a recorded marker stream (SensorFrame, markers only) at its recorded timing.");
   cli.Option("markers", "IN.csv", "marker stream (t,m0_x,m0_y,m0_z,...)", "", true)
       .Option("rate-scale", "X", "play X times faster than recorded", "1")
-      .Option("wait-readers", "N", "wait for N MarkerFrame readers before streaming", "1")
+      .Option("wait-readers", "N", "wait for N SensorFrame readers before streaming", "1")
       .Option("wait-timeout", "S", "give up waiting for readers after S seconds", "30")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli);
@@ -38,12 +38,12 @@ int RunReplay(int argc, char** argv) {
   const MarkerStream stream = ReadMarkerCsv(cli.GetString("markers"));
   if (stream.num_markers > 64)
     throw InputError(
-        Str("a MarkerFrame carries at most 64 markers, the stream has ", stream.num_markers));
+        Str("a SensorFrame carries at most 64 markers, the stream has ", stream.num_markers));
   const transport::TransportConfig tc = transport::TransportFromCli(cli);
   InstallInterruptHandler();
 
   transport::Participant participant(tc);
-  transport::Writer<MarkerFrame> markers(participant, transport::Qos::kLossless);
+  transport::Writer<SensorFrame> markers(participant, transport::Qos::kLossless);
   transport::Writer<SimStatus> status_writer(participant, transport::Qos::kStatus);
   transport::Reader<SimStatus> status_reader(participant, transport::Qos::kStatus);
   SimStatus status;
@@ -58,7 +58,7 @@ int RunReplay(int argc, char** argv) {
   if (wait_readers > 0) {
     if (!markers.WaitForReaders(static_cast<int>(wait_readers), wait_timeout)) {
       std::cerr
-          << "direct_sim replay: no MarkerFrame reader after " << wait_timeout
+          << "direct_sim replay: no SensorFrame reader after " << wait_timeout
           << " s (is inverse_sim running with the same --domain, --partition and DDS config?)\n";
       return 1;
     }
@@ -80,7 +80,11 @@ int RunReplay(int argc, char** argv) {
     const double due = start + (frames[k].stamp.sim_time - t0) / rate_scale;
     SleepUntilMonotonic(due);
     max_lateness = std::max(max_lateness, MonotonicSeconds() - due);
-    markers.Write(frames[k]);
+    SensorFrame frame;
+    frame.stamp = frames[k].stamp;
+    frame.p_WM = frames[k].p_WM;
+    frame.has_robot = false;
+    markers.Write(frame);
     status.frames_sent = k + 1;
     status.last_seq = frames[k].stamp.seq;
     status.stamp.sim_time = frames[k].stamp.sim_time;

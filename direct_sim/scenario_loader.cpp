@@ -5,13 +5,14 @@
 
 #include "common/core/error.h"
 #include "common/mesh/gmsh_reader.h"
+#include "common/scenario/shared_scenario.h"
 
 namespace nsim {
 namespace {
 
-const std::vector<std::string> kOwnSections = {"random_seed", "patient",   "breathing", "needle",
-                                               "robot",       "insertion", "safety",    "run",
-                                               "view",        "dds"};
+const std::vector<std::string> kOwnSections = {"random_seed", "shared",    "patient", "breathing",
+                                               "needle",      "robot",     "insertion", "safety",
+                                               "run",         "view",      "dds"};
 
 std::string Join(const std::string& dir, const std::string& path) {
   if (path.empty() || path[0] == '/' || dir.empty()) return path;
@@ -85,8 +86,9 @@ TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::strin
 }
 
 void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScenario* s) {
+  RejectKeysMovedToShared(node, "patient");
   node.CheckKeys({"time_step", "gravity", "constraint_compliance", "liver", "skin", "ribs",
-                  "rib_contact_margin", "diaphragm", "anchors", "markers", "target", "entry"});
+                  "rib_contact_margin", "diaphragm", "anchors"});
   PatientSceneConfig& c = s->scene;
   node.Read("time_step", &c.time_step);
   node.Read("gravity", &c.gravity);
@@ -107,10 +109,6 @@ void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScen
   c.ribs = ReadBoxes(node, "ribs");
   c.diaphragm = ReadBox(node.Child("diaphragm"));
   c.anchors = ReadBoxes(node, "anchors");
-  if (!node.Has("markers")) node.Fail("markers", "missing");
-  node.Read("markers", &c.markers_W);
-  c.target_W = node.Child("target").AsVector3();
-  c.entry_W = node.Child("entry").AsVector3();
   // meshes last: the cheap key checks come first
   s->liver_mesh = ReadMesh(liver, base_dir, &s->liver_mesh_path);
   s->skin_mesh = ReadMesh(skin, base_dir, &s->skin_mesh_path);
@@ -149,19 +147,15 @@ void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
 }
 
 void ReadNeedle(const YamlReader& node, SceneNeedleConfig* n) {
-  node.CheckKeys({"type", "length", "radius", "young_modulus", "poisson_ratio", "density",
-                  "tool_offset", "axis", "elements", "rayleigh_mass", "rayleigh_stiffness", "skin",
-                  "liver", "bevel"});
+  RejectKeysMovedToShared(node, "needle");
+  node.CheckKeys({"type", "young_modulus", "poisson_ratio", "density", "elements",
+                  "rayleigh_mass", "rayleigh_stiffness", "skin", "liver", "bevel"});
   const int type = node.ReadChoice("type", {"rigid", "flexible"});
   if (type >= 0) n->kind = type == 0 ? NeedleKind::kRigid : NeedleKind::kFlexible;
   NeedleConfig& g = n->kind == NeedleKind::kRigid ? n->rigid : n->flexible.needle;
-  node.Read("length", &g.length);
-  node.Read("radius", &g.radius);
   node.Read("young_modulus", &g.young_modulus);
   node.Read("poisson_ratio", &g.poisson_ratio);
   node.Read("density", &g.density);
-  node.Read("tool_offset", &g.p_FBase);
-  node.Read("axis", &g.axis_F);
   node.Read("elements", &n->flexible.num_elements);
   node.Read("rayleigh_mass", &n->flexible.rayleigh_mass);
   node.Read("rayleigh_stiffness", &n->flexible.rayleigh_stiffness);
@@ -184,8 +178,9 @@ void ReadNeedle(const YamlReader& node, SceneNeedleConfig* n) {
 }
 
 void ReadRobot(const YamlReader& node, RobotDriverConfig* r) {
+  RejectKeysMovedToShared(node, "robot");
   node.CheckKeys({"type", "max_linear_speed", "max_angular_speed", "max_linear_acceleration",
-                  "max_angular_acceleration", "workspace_min", "workspace_max", "base_pose"});
+                  "max_angular_acceleration", "workspace_min", "workspace_max"});
   const int type = node.ReadChoice("type", {"cartesian", "iiwa"});
   if (type >= 0) r->kind = type == 0 ? RobotKind::kCartesian : RobotKind::kIiwa;
   node.Read("max_linear_speed", &r->cartesian.max_linear_speed);
@@ -194,7 +189,6 @@ void ReadRobot(const YamlReader& node, RobotDriverConfig* r) {
   node.Read("max_angular_acceleration", &r->cartesian.max_angular_acceleration);
   node.Read("workspace_min", &r->cartesian.workspace_min_W);
   node.Read("workspace_max", &r->cartesian.workspace_max_W);
-  node.Read("base_pose", &r->iiwa.X_WB);
 }
 
 void ReadRun(const YamlReader& node, RunConfig* run) {
@@ -224,6 +218,22 @@ void ReadView(const YamlReader& node, ViewerConfig* v) {
   node.Read("fps", &v->fps);
 }
 
+// the shared facts into the direct configs: one source for both processes
+void ApplyShared(const SharedScenario& shared, DirectScenario* s) {
+  PatientSceneConfig& c = s->scene;
+  c.markers_W = shared.markers_W;
+  c.entry_W = shared.entry_W;
+  c.target_W = shared.target_W;
+  for (NeedleConfig* g : {&c.needle.rigid, &c.needle.flexible.needle}) {
+    g->length = shared.needle_length;
+    g->radius = shared.needle_radius;
+    g->p_FBase = shared.tool_offset_F;
+    g->axis_F = shared.axis_F;
+  }
+  s->insertion.approach_distance = shared.approach_distance;
+  s->robot.iiwa.X_WB = shared.X_WB;
+}
+
 }  // namespace
 
 void RunConfig::Validate() const {
@@ -241,15 +251,6 @@ void RunConfig::Validate() const {
     throw InputError(Str("run.status_period must be > 0 (s), got ", status_period));
 }
 
-void InsertionConfig::Validate() const {
-  if (!(approach_distance >= 0))
-    throw InputError(Str("insertion.approach_distance must be >= 0 (m), got ", approach_distance));
-  if (!(speed > 0) || !std::isfinite(speed))
-    throw InputError(Str("insertion.speed must be > 0 (m/s), got ", speed));
-  if (!std::isfinite(overshoot))
-    throw InputError(Str("insertion.overshoot must be finite (m), got ", overshoot));
-}
-
 const std::vector<std::string>& OtherProcessSections() {
   static const std::vector<std::string> sections = {"controller", "prediction", "inverse"};
   return sections;
@@ -263,6 +264,8 @@ DirectScenario ParseDirectScenario(const YamlReader& root, const std::string& ba
 
   DirectScenario s;
   s.source = root.source();
+  s.shared = ReadSharedScenario(root);
+  s.scenario_hash = ScenarioHash(s.shared);
   root.Read("random_seed", &s.random_seed);
   ReadPatient(root.Child("patient"), base_dir, &s);
   ReadBreathing(root.OptionalChild("breathing"), s.random_seed, &s.scene.breathing);
@@ -270,8 +273,8 @@ DirectScenario ParseDirectScenario(const YamlReader& root, const std::string& ba
   if (root.Has("robot")) ReadRobot(root.Child("robot"), &s.robot);
   if (root.Has("insertion")) {
     const YamlReader ins = root.Child("insertion");
-    ins.CheckKeys({"approach_distance", "speed", "overshoot"});
-    ins.Read("approach_distance", &s.insertion.approach_distance);
+    RejectKeysMovedToShared(ins, "insertion");
+    ins.CheckKeys({"speed", "overshoot"});
     ins.Read("speed", &s.insertion.speed);
     ins.Read("overshoot", &s.insertion.overshoot);
   }
@@ -293,6 +296,8 @@ DirectScenario ParseDirectScenario(const YamlReader& root, const std::string& ba
     dds.Read("domain", &s.dds_domain);
     dds.Read("partition", &s.dds_partition);
   }
+
+  ApplyShared(s.shared, &s);
 
   // the gate enforces the robot's limits
   s.safety.max_linear_speed = s.robot.cartesian.max_linear_speed;

@@ -11,6 +11,8 @@
 
 #include "common/core/yaml_reader.h"
 #include "common/mesh/tet_mesh.h"
+#include "common/scenario/shared_scenario.h"
+#include "common/scene/patient_loop.h"
 #include "common/scene/robot_driver.h"
 #include "common/scene/scene_config.h"
 #include "common/scene/target_gate.h"
@@ -42,19 +44,11 @@ struct RunConfig {
   void Validate() const;
 };
 
-/// The no-controller insertion along the planned path.
-struct InsertionConfig {
-  double approach_distance = 0.01;  ///< the tip starts this far before the entry (m), >= 0
-  double speed = 0.01;              ///< insertion speed without a controller (m/s), > 0
-  /// Without a controller the tip stops this far past the target along the path (m).
-  double overshoot = 0.0;
-
-  void Validate() const;
-};
-
 /// Everything direct_sim needs from a scenario.
 struct DirectScenario {
   std::string source;        ///< the scenario file
+  SharedScenario shared;     ///< the `shared:` section, applied to the configs below
+  uint64_t scenario_hash = 0;  ///< ScenarioHash(shared), checked at the start handshake
   uint64_t random_seed = 1;  ///< seeds the breathing unless breathing.random_seed is given
   PatientSceneConfig scene;
   TetMesh liver_mesh;  ///< read from patient.liver.mesh (world = liver frame)
@@ -68,6 +62,11 @@ struct DirectScenario {
   ViewerConfig view;
   int dds_domain = 0;
   std::string dds_partition = "nsim";
+
+  /// The patient loop's config (controller = false: insert along the path without targets).
+  PatientLoopConfig LoopConfig(bool controller) const {
+    return {scene, robot, insertion, safety, controller};
+  }
 };
 
 /// Top-level sections of the other process, accepted and skipped.

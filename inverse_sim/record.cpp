@@ -42,7 +42,7 @@ const char* EndingName(Ending e) {
 int RunRecord(int argc, char** argv) {
   CommandLine cli(
       "inverse_sim record --out OUT.csv [options]",
-      "Record every received MarkerFrame into a marker CSV until the end of the stream.");
+      "Record every received SensorFrame's markers into a marker CSV until the end of the stream.");
   cli.Option("out", "OUT.csv", "marker CSV to write", "", true)
       .Option("summary", "FILE.json", "also write the counts as JSON")
       .Option("timeout", "S", "give up after S seconds in all", "600")
@@ -66,7 +66,7 @@ int RunRecord(int argc, char** argv) {
   InstallInterruptHandler();
 
   transport::Participant participant(tc);
-  transport::Reader<MarkerFrame> reader(participant, transport::Qos::kLossless);
+  transport::Reader<SensorFrame> reader(participant, transport::Qos::kLossless);
   transport::Reader<SimStatus> status_reader(participant, transport::Qos::kStatus);
   transport::Writer<SimStatus> status_writer(participant, transport::Qos::kStatus);
   SimStatus own_status;
@@ -86,7 +86,7 @@ int RunRecord(int argc, char** argv) {
   const double start = MonotonicSeconds();
   double last_frame_at = start, next_progress = start + 1.0;
   Ending ending = Ending::kTimeout;
-  std::vector<MarkerFrame> frames;
+  std::vector<SensorFrame> frames;
   std::vector<SimStatus> statuses;
 
   while (true) {
@@ -94,7 +94,7 @@ int RunRecord(int argc, char** argv) {
     frames.clear();
     reader.Take(frames);
     const double now = MonotonicSeconds();
-    for (const MarkerFrame& f : frames) {
+    for (const SensorFrame& f : frames) {
       last_frame_at = now;
       if (seqs.Observe(f.stamp.seq) == SequenceTracker::Verdict::kLate) continue;
       if (csv && (static_cast<int>(f.p_WM.size()) != csv->num_markers() ||
@@ -111,7 +111,7 @@ int RunRecord(int argc, char** argv) {
         continue;
       }
       if (!csv) csv = std::make_unique<MarkerCsvWriter>(out_path, static_cast<int>(f.p_WM.size()));
-      csv->Write(f);
+      csv->Write(f.markers());
       last_time = f.stamp.sim_time;
       ++written;
     }

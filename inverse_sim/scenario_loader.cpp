@@ -7,6 +7,7 @@
 
 #include "common/core/error.h"
 #include "common/core/yaml_reader.h"
+#include "common/scenario/shared_scenario.h"
 
 namespace nsim {
 namespace {
@@ -26,14 +27,6 @@ void ReadFem(const YamlReader& y, FemConfig* c) {
     c->linear_solver = ParseFemLinearSolver(solver, y.Where("linear_solver"));
 }
 
-void ReadNeedle(const YamlReader& y, NeedleConfig* c) {
-  y.CheckKeys({"length", "radius", "p_FBase", "axis_F"});
-  y.Read("length", &c->length);
-  y.Read("radius", &c->radius);
-  y.Read("p_FBase", &c->p_FBase);
-  y.Read("axis_F", &c->axis_F);
-}
-
 template <int N>
 void ReadFixedVector(const YamlReader& y, const std::string& key,
                      Eigen::Matrix<double, N, 1>* value) {
@@ -43,117 +36,56 @@ void ReadFixedVector(const YamlReader& y, const std::string& key,
   for (int i = 0; i < N; ++i) (*value)[i] = v[i];
 }
 
-bool Near(double a, double b) {
-  return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(a) + std::abs(b));
-}
-bool Near(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return (a - b).norm() <= 1e-12; }
-
-std::string Text(const Eigen::Vector3d& v) {
-  return Str("[", v.x(), ", ", v.y(), ", ", v.z(), "]");
-}
-
-// Compares what both processes must agree on with the direct sections of the same file (when
-// present): geometric mismatches go to `errors`, nominal material mismatches to `warnings`.
-void CheckAgainstDirect(const YamlReader& root, const InverseScenario& s,
-                        std::vector<std::string>* errors, std::vector<std::string>* warnings) {
-  auto vec = [&](const YamlReader& node, const std::string& key, const Eigen::Vector3d& mine,
-                 const std::string& my_key, std::vector<std::string>* out) {
-    Eigen::Vector3d theirs;
-    if (!node.Read(key, &theirs)) return;
-    if (!Near(theirs, mine))
-      out->push_back(
-          Str(my_key, " ", Text(mine), " differs from ", node.Where(key), " ", Text(theirs)));
-  };
-  auto num = [&](const YamlReader& node, const std::string& key, double mine,
-                 const std::string& my_key, std::vector<std::string>* out) {
-    double theirs;
-    if (!node.Read(key, &theirs)) return;
-    if (!Near(theirs, mine))
-      out->push_back(Str(my_key, " ", mine, " differs from ", node.Where(key), " ", theirs));
-  };
-  const YamlReader patient = root.OptionalChild("patient");
-  if (!patient.IsNull()) {
-    std::vector<Eigen::Vector3d> markers;
-    if (patient.Read("markers", &markers)) {
-      bool same = markers.size() == s.model.markers_W.size();
-      for (size_t i = 0; same && i < markers.size(); ++i)
-        same = Near(markers[i], s.model.markers_W[i]);
-      if (!same)
-        errors->push_back(
-            "inverse.markers differ from patient.markers (the marker rest positions)");
-    }
-    vec(patient, "entry", s.path.entry_W, "controller.path.entry", errors);
-    vec(patient, "target", s.path.target_W, "controller.path.target", errors);
-    const YamlReader liver = patient.OptionalChild("liver");
-    if (!liver.IsNull()) {
-      num(liver, "young_modulus", s.model.liver.young_modulus, "inverse.liver.young_modulus",
-          warnings);
-      num(liver, "poisson_ratio", s.model.liver.poisson_ratio, "inverse.liver.poisson_ratio",
-          warnings);
-      num(liver, "density", s.model.liver.density, "inverse.liver.density", warnings);
-    }
-    num(patient, "time_step", s.model.liver.time_step, "inverse.liver.time_step", warnings);
-  }
-  const YamlReader needle = root.OptionalChild("needle");
-  if (!needle.IsNull()) {
-    num(needle, "length", s.model.needle.length, "inverse.needle.length", errors);
-    num(needle, "radius", s.model.needle.radius, "inverse.needle.radius", errors);
-    // the direct default tool offset is zero and the axis +z_F, like the inverse defaults
-    Eigen::Vector3d offset = Eigen::Vector3d::Zero(), axis = Eigen::Vector3d::UnitZ();
-    needle.Read("tool_offset", &offset);
-    needle.Read("axis", &axis);
-    if (!Near(offset, s.model.needle.p_FBase))
-      errors->push_back(Str("inverse.needle.p_FBase ", Text(s.model.needle.p_FBase),
-                            " differs from needle.tool_offset ", Text(offset)));
-    if (!Near(axis.normalized(), s.model.needle.axis_F.normalized()))
-      errors->push_back(Str("inverse.needle.axis_F ", Text(s.model.needle.axis_F),
-                            " differs from needle.axis ", Text(axis)));
-  }
-  const YamlReader insertion = root.OptionalChild("insertion");
-  if (!insertion.IsNull())
-    num(insertion, "approach_distance", s.path.approach_distance,
-        "controller.path.approach_distance", errors);
-  const YamlReader robot = root.OptionalChild("robot");
-  if (!robot.IsNull() && robot.Has("base_pose")) {
-    const Eigen::Isometry3d theirs = robot.Child("base_pose").AsPose();
-    if (!theirs.matrix().isApprox(s.control.iiwa.X_WB.matrix(), 1e-12))
-      errors->push_back("controller.iiwa_base differs from robot.base_pose");
-  }
+// the shared facts into the inverse configs: one source for both processes
+void ApplyShared(const SharedScenario& shared, InverseScenario* s) {
+  s->model.markers_W = shared.markers_W;
+  s->model.needle.length = shared.needle_length;
+  s->model.needle.radius = shared.needle_radius;
+  s->model.needle.p_FBase = shared.tool_offset_F;
+  s->model.needle.axis_F = shared.axis_F;
+  s->path.entry_W = shared.entry_W;
+  s->path.target_W = shared.target_W;
+  s->path.approach_distance = shared.approach_distance;
+  s->control.iiwa.X_WB = shared.X_WB;
 }
 
 }  // namespace
 
 InverseScenario LoadInverseScenario(const std::string& path) {
   const YamlReader root = YamlReader::LoadFile(path);
+  // every top-level section of a scenario file (both processes'), so a typo is caught here too
+  root.CheckKeys({"random_seed", "shared", "patient", "breathing", "needle", "robot", "insertion",
+                  "safety", "run", "view", "dds", "inverse", "controller", "prediction"});
   InverseScenario s;
   s.source = path;
+  s.shared = ReadSharedScenario(root);
+  s.scenario_hash = ScenarioHash(s.shared);
+  ApplyShared(s.shared, &s);
 
   const YamlReader inv = root.Child("inverse");
-  inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "markers", "needle", "puncture_force",
-                 "point_spacing", "tip_constraint"});
+  RejectKeysMovedToShared(inv, "inverse");
+  inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
+                 "tip_constraint"});
   std::filesystem::path mesh = inv.Child("mesh").AsString();
   if (mesh.is_relative()) mesh = std::filesystem::path(path).parent_path() / mesh;
   s.mesh_path = mesh.lexically_normal().string();
   if (inv.Has("liver")) ReadFem(inv.Child("liver"), &s.model.liver);
   inv.Read("young_modulus_factor", &s.model.young_modulus_factor);
-  if (!inv.Read("markers", &s.model.markers_W)) inv.Fail("markers", "missing");
-  if (inv.Has("needle")) ReadNeedle(inv.Child("needle"), &s.model.needle);
   inv.Read("puncture_force", &s.model.puncture_force);
   inv.Read("point_spacing", &s.model.point_spacing);
   inv.Read("tip_constraint", &s.model.tip_constraint);
   ValidateAs([&] { s.model.Validate(); }, path, "inverse.", "inverse.");
 
   const YamlReader ctl = root.Child("controller");
+  RejectKeysMovedToShared(ctl, "controller");
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
-                 "liver_entry_objective", "iiwa_base"});
+                 "liver_entry_objective"});
   std::string dof;
   if (ctl.Read("dof", &dof)) s.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
   const YamlReader p = ctl.Child("path");
-  p.CheckKeys({"entry", "target", "approach_distance", "spacing", "switch_distance"});
-  if (!p.Read("entry", &s.path.entry_W)) p.Fail("entry", "missing");
-  if (!p.Read("target", &s.path.target_W)) p.Fail("target", "missing");
-  p.Read("approach_distance", &s.path.approach_distance);
+  RejectKeysMovedToShared(p, "controller.path");
+  p.CheckKeys({"spacing", "switch_distance"});
   p.Read("spacing", &s.path.spacing);
   p.Read("switch_distance", &s.path.switching.switch_distance);
   ReadFixedVector<6>(ctl, "pose_steps", &s.control.pose_steps);
@@ -170,7 +102,6 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   ctl.Read("max_rotation_step", &s.control.law.max_rotation_step);
   ctl.Read("max_joint_step", &s.control.law.max_joint_step);
   ctl.Read("liver_entry_objective", &s.control.liver_entry_objective);
-  ctl.Read("iiwa_base", &s.control.iiwa.X_WB);
   ValidateAs([&] { s.path.Validate(); }, path, "controller.", "controller.");
   ValidateAs([&] { s.control.Validate(); }, path, "controller.", "controller.");
 
@@ -217,15 +148,6 @@ InverseScenario LoadInverseScenario(const std::string& path) {
     }
   }
 
-  std::vector<std::string> errors, warnings;
-  CheckAgainstDirect(root, s, &errors, &warnings);
-  for (const std::string& w : warnings)
-    std::cerr << "inverse_sim: warning: " << path << ": " << w << "\n";
-  if (!errors.empty()) {
-    std::string all;
-    for (const std::string& e : errors) all += (all.empty() ? "" : "; ") + e;
-    throw InputError(Str(path, ": the inverse sections disagree with the direct ones: ", all));
-  }
   return s;
 }
 

@@ -1,17 +1,18 @@
 #pragma once
-// Loads the inverse side of a scenario file: the `inverse:` (the liver model), `controller:`
-// (path, Jacobian, law) and `prediction:` (marker prediction, horizon) sections, and the
-// shared `dds:` (domain, partition) and `run.mode` (lockstep: answer every frame in order).
-// The direct sections are not loaded, only read to check that both sides agree on the shared
-// geometry: marker rest positions, planned entry and target, needle length, radius, tool offset
-// and axis, approach distance and the iiwa base pose (an InputError names every disagreement),
-// and the nominal liver material and time step (a warning on stderr). Only this loader knows
-// YAML; the libraries get the config structs.
+// Loads the inverse side of a scenario file: the `shared:` section (markers at rest, entry,
+// target, needle geometry, approach, robot base: written once for both processes), the
+// `inverse:` (the liver model), `controller:` (path, Jacobian, law) and `prediction:` (marker
+// prediction, horizon) sections, and the shared `dds:` (domain, partition) and `run.mode`
+// (lockstep: answer every frame in order). The direct sections are not loaded; that both
+// processes run the same shared part is checked at the start handshake (SimStatus
+// scenario_hash). Only this loader knows YAML; the libraries get the config structs.
 
 #include <string>
 
 #include "common/prediction/horizon_estimator.h"
 #include "common/prediction/marker_predictor.h"
+#include "common/scenario/shared_scenario.h"
+#include "common/steering/controller_loop.h"
 #include "common/steering/steering_config.h"
 
 namespace nsim {
@@ -19,6 +20,8 @@ namespace nsim {
 /// Everything inverse_sim run needs from the scenario.
 struct InverseScenario {
   std::string source;      ///< the file it came from
+  SharedScenario shared;   ///< the `shared:` section, applied to the configs below
+  uint64_t scenario_hash = 0;  ///< ScenarioHash(shared), checked at the start handshake
   std::string mesh_path;   ///< inverse liver mesh (.msh), resolved relative to the scenario file
   InverseModelConfig model;
   SteeringPathConfig path;
@@ -45,6 +48,12 @@ struct InverseScenario {
   bool lockstep = false;
   int dds_domain = 0;                ///< dds.domain (default 0)
   std::string dds_partition = "nsim";  ///< dds.partition (default nsim)
+
+  /// The controller loop's config.
+  ControllerLoopConfig LoopConfig() const {
+    return {model,      path, control, prediction_enabled, prediction, prediction_displacement,
+            horizon};
+  }
 };
 
 /// Reads and validates the three sections. InputError "<file>: <key>: ..." on a missing or

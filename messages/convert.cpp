@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "common/core/error.h"
+#include "common/core/wire_pose.h"
 
 namespace nsim::transport {
 namespace {
@@ -31,24 +32,22 @@ std::string FromVec3(const nsim_msgs_Vec3& m, Eigen::Vector3d& v, const char* fi
 }
 
 void ToPose(const Eigen::Isometry3d& X, nsim_msgs_Pose& m) {
-  m.p = ToVec3(X.translation());
-  const Eigen::Quaterniond q(X.linear());
-  m.qw = q.w();
-  m.qx = q.x();
-  m.qy = q.y();
-  m.qz = q.z();
+  const WirePose w = ToWirePose(X);
+  m.p = ToVec3(w.p);
+  m.qw = w.q.w();
+  m.qx = w.q.x();
+  m.qy = w.q.y();
+  m.qz = w.q.z();
 }
 
 std::string FromPose(const nsim_msgs_Pose& m, Eigen::Isometry3d& X, const char* field) {
-  Eigen::Vector3d p;
-  if (auto e = FromVec3(m.p, p, field); !e.empty()) return e;
-  const Eigen::Quaterniond q(m.qw, m.qx, m.qy, m.qz);
-  if (!q.coeffs().allFinite()) return Str(field, " quaternion is not finite");
-  if (!(std::abs(q.norm() - 1.0) < kUnitQuaternionTolerance))
-    return Str(field, " quaternion norm is ", q.norm(), ", expected 1");
-  X = Eigen::Isometry3d::Identity();
-  X.linear() = q.normalized().toRotationMatrix();
-  X.translation() = p;
+  WirePose w;
+  if (auto e = FromVec3(m.p, w.p, field); !e.empty()) return e;
+  w.q = Eigen::Quaterniond(m.qw, m.qx, m.qy, m.qz);
+  if (!w.q.coeffs().allFinite()) return Str(field, " quaternion is not finite");
+  if (!(std::abs(w.q.norm() - 1.0) < kUnitQuaternionTolerance))
+    return Str(field, " quaternion norm is ", w.q.norm(), ", expected 1");
+  X = FromWirePose(w);
   return "";
 }
 
@@ -74,55 +73,53 @@ void CopyString(const std::string& s, char* dst, size_t capacity) {
 
 }  // namespace
 
-void ToMessage(const MarkerFrame& sample, nsim_msgs_MarkerFrame& msg, ConvertScratch& scratch) {
-  NSIM_CHECK(sample.p_WM.size() <= 64, "at most 64 markers fit a MarkerFrame, got ",
+void ToMessage(const SensorFrame& sample, nsim_msgs_SensorFrame& msg, ConvertScratch& scratch) {
+  NSIM_CHECK(sample.p_WM.size() <= 64, "at most 64 markers fit a SensorFrame, got ",
              sample.p_WM.size());
+  NSIM_CHECK(sample.q.size() <= 7, "at most 7 joints, got ", sample.q.size());
   ToStamp(sample.stamp, msg.stamp);
   scratch.vec3.resize(sample.p_WM.size());
   for (size_t i = 0; i < sample.p_WM.size(); ++i) scratch.vec3[i] = ToVec3(sample.p_WM[i]);
   msg.p_WM._maximum = msg.p_WM._length = static_cast<uint32_t>(scratch.vec3.size());
   msg.p_WM._buffer = scratch.vec3.empty() ? nullptr : scratch.vec3.data();
   msg.p_WM._release = false;
+  msg.has_robot = sample.has_robot;
+  ToPose(sample.X_WE, msg.X_WE);
+  scratch.values = sample.q;
+  PointSequence(msg.q, scratch.values);
+  msg.bevel_angle = sample.bevel_angle;
+  msg.entry_punctured = sample.entry_punctured;
+  msg.p_WP = ToVec3(sample.p_WP);
+  msg.n_W = ToVec3(sample.n_W);
 }
 
-std::string FromMessage(const nsim_msgs_MarkerFrame& msg, MarkerFrame& sample) {
+std::string FromMessage(const nsim_msgs_SensorFrame& msg, SensorFrame& sample) {
   if (auto e = FromStamp(msg.stamp, sample.stamp); !e.empty()) return e;
   sample.p_WM.resize(msg.p_WM._length);
   for (uint32_t i = 0; i < msg.p_WM._length; ++i)
     if (auto e = FromVec3(msg.p_WM._buffer[i], sample.p_WM[i], "p_WM"); !e.empty())
       return Str(e, " (marker ", i, ")");
-  return "";
-}
-
-void ToMessage(const RobotState& sample, nsim_msgs_RobotState& msg, ConvertScratch& scratch) {
-  NSIM_CHECK(sample.q.size() <= 7, "at most 7 joints, got ", sample.q.size());
-  ToStamp(sample.stamp, msg.stamp);
-  ToPose(sample.X_WE, msg.X_WE);
-  scratch.values = sample.q;
-  PointSequence(msg.q, scratch.values);
-  msg.bevel_angle = sample.bevel_angle;
-}
-
-std::string FromMessage(const nsim_msgs_RobotState& msg, RobotState& sample) {
-  if (auto e = FromStamp(msg.stamp, sample.stamp); !e.empty()) return e;
+  sample.has_robot = msg.has_robot;
+  if (!msg.has_robot) {
+    // a marker-only stream: the robot and entry fields carry nothing
+    sample.X_WE = Eigen::Isometry3d::Identity();
+    sample.q.clear();
+    sample.bevel_angle = 0.0;
+    sample.entry_punctured = false;
+    sample.p_WP.setZero();
+    sample.n_W = Eigen::Vector3d::UnitZ();
+    return "";
+  }
   if (auto e = FromPose(msg.X_WE, sample.X_WE, "X_WE"); !e.empty()) return e;
   if (auto e = FromJoints(msg.q, sample.q); !e.empty()) return e;
   sample.bevel_angle = msg.bevel_angle;
-  return std::isfinite(msg.bevel_angle) ? "" : "bevel_angle is not finite";
-}
-
-void ToMessage(const EntryPoint& sample, nsim_msgs_EntryPoint& msg, ConvertScratch&) {
-  ToStamp(sample.stamp, msg.stamp);
-  msg.punctured = sample.punctured;
-  msg.p_WP = ToVec3(sample.p_WP);
-  msg.n_W = ToVec3(sample.n_W);
-}
-
-std::string FromMessage(const nsim_msgs_EntryPoint& msg, EntryPoint& sample) {
-  if (auto e = FromStamp(msg.stamp, sample.stamp); !e.empty()) return e;
-  sample.punctured = msg.punctured;
+  if (!std::isfinite(msg.bevel_angle)) return "bevel_angle is not finite";
+  sample.entry_punctured = msg.entry_punctured;
   if (auto e = FromVec3(msg.p_WP, sample.p_WP, "p_WP"); !e.empty()) return e;
-  return FromVec3(msg.n_W, sample.n_W, "n_W");
+  if (auto e = FromVec3(msg.n_W, sample.n_W, "n_W"); !e.empty()) return e;
+  if (sample.entry_punctured && !(std::abs(sample.n_W.norm() - 1.0) < 1e-6))
+    return Str("n_W norm is ", sample.n_W.norm(), ", expected 1");
+  return "";
 }
 
 void ToMessage(const RobotTarget& sample, nsim_msgs_RobotTarget& msg, ConvertScratch& scratch) {
@@ -156,6 +153,7 @@ void ToMessage(const SimStatus& sample, nsim_msgs_SimStatus& msg, ConvertScratch
   msg.rate_hz = sample.rate_hz;
   msg.phase = sample.phase;
   CopyString(sample.message, msg.message, sizeof msg.message);
+  msg.scenario_hash = sample.scenario_hash;
 }
 
 std::string FromMessage(const nsim_msgs_SimStatus& msg, SimStatus& sample) {
@@ -168,6 +166,7 @@ std::string FromMessage(const nsim_msgs_SimStatus& msg, SimStatus& sample) {
   sample.rate_hz = msg.rate_hz;
   sample.phase = msg.phase;
   sample.message.assign(msg.message, strnlen(msg.message, sizeof msg.message));
+  sample.scenario_hash = msg.scenario_hash;
   return "";
 }
 

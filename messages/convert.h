@@ -21,9 +21,7 @@ struct MessageTraits;
     static const dds_topic_descriptor_t* descriptor() { return &MsgT##_desc; } \
     static constexpr const char* kTopic = TopicName;                           \
   };
-NSIM_MESSAGE_TRAITS(MarkerFrame, nsim_msgs_MarkerFrame, "nsim_MarkerFrame")
-NSIM_MESSAGE_TRAITS(RobotState, nsim_msgs_RobotState, "nsim_RobotState")
-NSIM_MESSAGE_TRAITS(EntryPoint, nsim_msgs_EntryPoint, "nsim_EntryPoint")
+NSIM_MESSAGE_TRAITS(SensorFrame, nsim_msgs_SensorFrame, "nsim_SensorFrame")
 NSIM_MESSAGE_TRAITS(RobotTarget, nsim_msgs_RobotTarget, "nsim_RobotTarget")
 NSIM_MESSAGE_TRAITS(SimStatus, nsim_msgs_SimStatus, "nsim_SimStatus")
 #undef NSIM_MESSAGE_TRAITS
@@ -35,18 +33,14 @@ struct ConvertScratch {
 };
 
 /// Fills `msg` from `sample`. Sequence buffers point into `scratch` (valid until its next use).
-void ToMessage(const MarkerFrame& sample, nsim_msgs_MarkerFrame& msg, ConvertScratch& scratch);
-void ToMessage(const RobotState& sample, nsim_msgs_RobotState& msg, ConvertScratch& scratch);
-void ToMessage(const EntryPoint& sample, nsim_msgs_EntryPoint& msg, ConvertScratch& scratch);
+void ToMessage(const SensorFrame& sample, nsim_msgs_SensorFrame& msg, ConvertScratch& scratch);
 void ToMessage(const RobotTarget& sample, nsim_msgs_RobotTarget& msg, ConvertScratch& scratch);
 void ToMessage(const SimStatus& sample, nsim_msgs_SimStatus& msg, ConvertScratch& scratch);
 
 /// Fills `sample` from a received message. Returns an empty string if the message is valid,
 /// otherwise what is wrong with it (a NaN, a non-unit quaternion, an unknown enum value); the
 /// reader then drops it and counts it.
-std::string FromMessage(const nsim_msgs_MarkerFrame& msg, MarkerFrame& sample);
-std::string FromMessage(const nsim_msgs_RobotState& msg, RobotState& sample);
-std::string FromMessage(const nsim_msgs_EntryPoint& msg, EntryPoint& sample);
+std::string FromMessage(const nsim_msgs_SensorFrame& msg, SensorFrame& sample);
 std::string FromMessage(const nsim_msgs_RobotTarget& msg, RobotTarget& sample);
 std::string FromMessage(const nsim_msgs_SimStatus& msg, SimStatus& sample);
 

@@ -221,27 +221,24 @@ ReaderHealth Reader<Sample>::health() {
   return health_;
 }
 
-template class Writer<MarkerFrame>;
-template class Writer<RobotState>;
-template class Writer<EntryPoint>;
+template class Writer<SensorFrame>;
 template class Writer<RobotTarget>;
 template class Writer<SimStatus>;
-template class Reader<MarkerFrame>;
-template class Reader<RobotState>;
-template class Reader<EntryPoint>;
+template class Reader<SensorFrame>;
 template class Reader<RobotTarget>;
 template class Reader<SimStatus>;
 
-bool WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self, double timeout_s) {
+std::optional<SimStatus> WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self,
+                                            double timeout_s) {
   const double end = MonotonicSeconds() + timeout_s;
   std::vector<SimStatus> statuses;
   while (true) {
     statuses.clear();
     reader.Take(statuses);
     for (const SimStatus& s : statuses)
-      if (s.sender != self && s.state == RunState::kRunning) return true;
+      if (s.sender != self && s.state == RunState::kRunning) return s;
     const double left = end - MonotonicSeconds();
-    if (left <= 0) return false;
+    if (left <= 0) return std::nullopt;
     reader.Wait(std::min(0.02, left));
   }
 }

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,7 +33,7 @@ struct TransportConfig {
 
 /// QoS profiles.
 enum class Qos {
-  kStateStream,  ///< MarkerFrame, RobotState, EntryPoint: reliable, keep-last 1
+  kStateStream,  ///< SensorFrame: reliable, keep-last 1
   kTarget,       ///< RobotTarget: reliable, keep-last 1
   kStatus,       ///< SimStatus: reliable, keep-last 1, transient-local (late joiners get the last)
   kLossless,     ///< a stream where every sample matters (replay, recording): reliable,
@@ -66,7 +67,7 @@ class Participant {
   std::vector<std::pair<const void*, int32_t>> topics_;
 };
 
-/// A typed writer of one sample type (MarkerFrame, RobotState, EntryPoint, RobotTarget,
+/// A typed writer of one sample type (SensorFrame, RobotTarget,
 /// SimStatus). Write() stamps the wall time of sending.
 template <typename Sample>
 class Writer {
@@ -125,10 +126,12 @@ class Reader {
   ReaderHealth health_;
 };
 
-/// Waits until a process other than `self` publishes a running status; false on timeout. A
+/// Waits until a process other than `self` publishes a running status and returns it (its
+/// scenario_hash is checked by the caller); nothing on timeout. A
 /// process says "running" once each of its readers has matched the writer it reads from: a
 /// writer matching a reader is not enough, since until the reader knows the writer it drops
 /// the writer's samples (the first frames of a run would be lost).
-bool WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self, double timeout_s);
+std::optional<SimStatus> WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self,
+                                            double timeout_s);
 
 }  // namespace nsim::transport

@@ -1,7 +1,8 @@
 #pragma once
 // Error tiers (STYLE.md): InputError for anything a user supplied (configs, files, messages,
-// command lines): mains print it and exit with code 2. NSIM_CHECK for internal invariants:
-// always on, aborts with file and line.
+// command lines): mains print it and exit with code 2. SolverError for a computation that
+// failed on valid input (a diverged solve, a NaN the solver produced): a runtime failure, exit
+// code 1. NSIM_CHECK for internal invariants: always on, aborts with file and line.
 
 #include <sstream>
 #include <stdexcept>
@@ -14,6 +15,13 @@ namespace nsim {
 class InputError : public std::runtime_error {
  public:
   explicit InputError(const std::string& what) : std::runtime_error(what) {}
+};
+
+/// A numerical failure on valid input: a solve that diverged or produced a non-finite value.
+/// Not the user's fault; the run stops as a runtime failure (exit 1), reported as such.
+class SolverError : public std::runtime_error {
+ public:
+  explicit SolverError(const std::string& what) : std::runtime_error(what) {}
 };
 
 /// Builds a message from streamable parts: Str("expected ", 3, " columns, got ", n).

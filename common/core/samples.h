@@ -24,14 +24,6 @@ struct MarkerFrame {
   std::vector<Eigen::Vector3d> p_WM;  ///< marker positions in world (m), #markers entries
 };
 
-/// Measured state of the robot holding the needle.
-struct RobotState {
-  Stamp stamp;
-  Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< end-effector (flange) pose in world
-  std::vector<double> q;     ///< joint angles (rad); empty for the Cartesian robot
-  double bevel_angle = 0.0;  ///< needle roll about its axis (rad)
-};
-
 /// Localized skin entry point of the needle.
 struct EntryPoint {
   Stamp stamp;
@@ -40,13 +32,33 @@ struct EntryPoint {
   Eigen::Vector3d n_W = Eigen::Vector3d::UnitZ();  ///< outward skin normal at the entry (unit)
 };
 
+/// Everything the controller needs from one instant of the patient side (DESIGN.md "Messages
+/// and transport"): the markers, the robot's measured state and the localized entry point, all
+/// sampled at stamp.sim_time, so nothing has to be re-joined by sequence number. The one state
+/// message on the wire (messages/nsim_msgs.idl SensorFrame).
+struct SensorFrame {
+  Stamp stamp;
+  std::vector<Eigen::Vector3d> p_WM;  ///< marker positions in world (m), in marker order
+  /// false for a marker-only stream (direct_sim replay): the robot and entry fields are unset
+  bool has_robot = true;
+  Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< end-effector (flange) pose
+  std::vector<double> q;     ///< joint angles (rad); empty for the Cartesian robot
+  double bevel_angle = 0.0;  ///< needle roll about its axis (rad)
+  bool entry_punctured = false;                    ///< false until the skin is punctured
+  Eigen::Vector3d p_WP = Eigen::Vector3d::Zero();  ///< skin entry point in world (m)
+  Eigen::Vector3d n_W = Eigen::Vector3d::UnitZ();  ///< outward skin normal at the entry (unit)
+
+  MarkerFrame markers() const { return {stamp, p_WM}; }
+  EntryPoint entry() const { return {stamp, entry_punctured, p_WP, n_W}; }
+};
+
 /// Whether a RobotTarget commands the end-effector pose or the joints.
 enum class TargetMode : uint8_t { kCartesian = 0, kJoint = 1 };
 
 /// A command for the robot, answering one marker frame.
 struct RobotTarget {
   Stamp stamp;
-  uint64_t answers_seq = 0;  ///< seq of the MarkerFrame this target was computed from
+  uint64_t answers_seq = 0;  ///< seq of the SensorFrame this target was computed from
   TargetMode mode = TargetMode::kCartesian;
   Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< commanded flange pose (kCartesian)
   std::vector<double> q;     ///< commanded joint angles (rad) (kJoint)
@@ -66,6 +78,9 @@ struct SimStatus {
   double rate_hz = 0.0;      ///< loop rate over the recent window (Hz)
   uint8_t phase = 0;         ///< insertion phase 0 (outside), 1 (skin), 2 (liver)
   std::string message;       ///< human-readable detail (last warning or error)
+  /// ScenarioHash of the scenario's shared part (common/scenario/shared_scenario.h); 0: none
+  /// (a process that runs no scenario, e.g. replay). Checked at the start handshake.
+  uint64_t scenario_hash = 0;
 };
 
 }  // namespace nsim

@@ -475,9 +475,11 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
   Impl& s = *impl_;
   const FemModel& model = model_;
   const int n = model.num_nodes();
-  if (dv_correction.size() != 3 * n || !dv_correction.allFinite())
-    throw InputError(Str("velocity correction must be finite with 3n = ", 3 * n, " entries, got ",
+  if (dv_correction.size() != 3 * n)
+    throw InputError(Str("velocity correction must have 3n = ", 3 * n, " entries, got ",
                          dv_correction.size()));
+  if (!dv_correction.allFinite())
+    throw SolverError("the constraint velocity correction is not finite (the solve diverged)");
   const auto& dirichlet = model.get_dirichlet_nodes();
   for (int i : dirichlet)
     if (dv_correction.segment<3>(3 * i).squaredNorm() != 0.0)

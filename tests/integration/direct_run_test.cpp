@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <deque>
 #include <thread>
 
 #include <unistd.h>
@@ -102,8 +103,7 @@ TEST(DirectRun, SafetyGateCountsBadTargetsAndNoticesTheControllerLeaving) {
   tc.partition = partition;
   tc.config_file = kDdsConfig;
   transport::Participant participant(tc);
-  transport::Reader<MarkerFrame> frames(participant, transport::Qos::kLossless);
-  transport::Reader<RobotState> states(participant, transport::Qos::kLossless);
+  transport::Reader<SensorFrame> frames(participant, transport::Qos::kLossless);
   auto targets =
       std::make_unique<transport::Writer<RobotTarget>>(participant, transport::Qos::kTarget);
 
@@ -111,27 +111,26 @@ TEST(DirectRun, SafetyGateCountsBadTargetsAndNoticesTheControllerLeaving) {
                         (dir / "out").string(), "--duration", "4", "--no-video", "--quiet"},
                        testing::DdsArgs(42, partition)),
                    (dir / "run.log").string());
-  std::vector<MarkerFrame> got;
-  std::vector<RobotState> robot;
-  Eigen::Isometry3d X_now = Eigen::Isometry3d::Identity();
-  bool have_pose = false;
-  const double end = MonotonicSeconds() + 60.0;
-  while (targets && MonotonicSeconds() < end) {
-    frames.Wait(0.05);
-    robot.clear();
-    states.Take(robot);
-    if (!robot.empty()) {
-      X_now = robot.back().X_WE;
-      have_pose = true;
-    }
+  std::deque<SensorFrame> queue;  // frames taken, not yet answered
+  std::vector<SensorFrame> got;
+  auto take = [&] {
     got.clear();
     frames.Take(got);
-    for (const MarkerFrame& f : got) {
-      if (!have_pose) continue;
+    queue.insert(queue.end(), got.begin(), got.end());
+  };
+  uint64_t newest = 0;  // the newest frame seen: direct_sim has stepped that far
+  const double end = MonotonicSeconds() + 60.0;
+  while (targets && MonotonicSeconds() < end) {
+    if (queue.empty()) frames.Wait(0.05);
+    take();
+    while (!queue.empty() && targets) {
+      const SensorFrame f = queue.front();
+      queue.pop_front();
       const uint64_t k = f.stamp.seq;
+      newest = std::max(newest, k);
       RobotTarget t;
       t.answers_seq = k;
-      t.X_WE = X_now;
+      t.X_WE = f.X_WE;  // hold where the frame says the robot is
       if (k == 10) t.X_WE.translation().x() = std::nan("");             // dropped by the transport
       if (k == 12) t.X_WE.translation() += Eigen::Vector3d(0.2, 0, 0);  // too fast: clamped
       if (k == 16) t.answers_seq = 11;                                  // out of order
@@ -144,16 +143,14 @@ TEST(DirectRun, SafetyGateCountsBadTargetsAndNoticesTheControllerLeaving) {
       }
       targets->Write(t);
       // targets are keep-last 1: before the next target can replace a scripted bad one, wait
-      // until direct_sim has stepped twice more, i.e. taken it (frames may arrive here in
-      // bursts when the machine is busy)
+      // until direct_sim has stepped twice more, i.e. taken it (the frames that arrive meanwhile
+      // are queued and answered next)
       if (k == 10 || k == 12 || k == 16 || k == 17 || k == 45) {
         const double wait_end = MonotonicSeconds() + 2.0;
-        uint64_t stepped = 0;
-        while (stepped < k + 2 && MonotonicSeconds() < wait_end) {
-          states.Wait(0.02);
-          robot.clear();
-          states.Take(robot);
-          for (const RobotState& r : robot) stepped = std::max(stepped, r.stamp.seq);
+        while (newest < k + 2 && MonotonicSeconds() < wait_end) {
+          frames.Wait(0.02);
+          take();
+          for (const SensorFrame& r : queue) newest = std::max(newest, r.stamp.seq);
         }
       }
     }

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "common/core/wire_pose.h"
+
 namespace nsim::transport {
 namespace {
 
@@ -17,20 +19,76 @@ Eigen::Isometry3d SomePose() {
   return X;
 }
 
-TEST(Convert, MarkerFrameRoundTrip) {
-  MarkerFrame in;
+SensorFrame SomeFrame() {
+  SensorFrame in;
   in.stamp = {42, 1.25, 123456789};
   in.p_WM = {{1, 2, 3}, {-4, 5e-9, 6}};
-  nsim_msgs_MarkerFrame msg{};
+  in.X_WE = SomePose();
+  in.q = {0.1, -0.2, 0.3, -0.4, 0.5, -0.6, 0.7};
+  in.bevel_angle = 0.25;
+  in.entry_punctured = true;
+  in.p_WP = {0.01, 0.02, 0.03};
+  in.n_W = {0, 1, 0};
+  return in;
+}
+
+TEST(Convert, SensorFrameRoundTrip) {
+  const SensorFrame in = SomeFrame();
+  nsim_msgs_SensorFrame msg{};
   ConvertScratch scratch;
   ToMessage(in, msg, scratch);
-  MarkerFrame out;
+  SensorFrame out;
   EXPECT_EQ(FromMessage(msg, out), "");
   EXPECT_EQ(out.stamp.seq, 42u);
   EXPECT_EQ(out.stamp.sim_time, 1.25);
   EXPECT_EQ(out.stamp.wall_time_ns, 123456789);
   ASSERT_EQ(out.p_WM.size(), 2u);
   EXPECT_EQ(out.p_WM[1], in.p_WM[1]);
+  EXPECT_TRUE(out.has_robot);
+  EXPECT_TRUE(out.X_WE.isApprox(in.X_WE, 1e-14));
+  EXPECT_EQ(out.q, in.q);
+  EXPECT_EQ(out.bevel_angle, 0.25);
+  EXPECT_TRUE(out.entry_punctured);
+  EXPECT_EQ(out.p_WP, in.p_WP);
+  EXPECT_EQ(out.n_W, in.n_W);
+}
+
+// the in-process closed loop relies on this: what a receiver gets is ThroughWire, bitwise
+TEST(Convert, ThroughWireIsExactlyWhatTheReceiverGets) {
+  for (int i = 0; i < 50; ++i) {
+    SensorFrame in = SomeFrame();
+    in.X_WE.linear() = Eigen::AngleAxisd(0.05 * i - 1.2, Eigen::Vector3d(1, -2, 0.5 + 0.1 * i).normalized())
+                           .toRotationMatrix();
+    nsim_msgs_SensorFrame msg{};
+    ConvertScratch scratch;
+    ToMessage(in, msg, scratch);
+    SensorFrame out;
+    ASSERT_EQ(FromMessage(msg, out), "");
+    EXPECT_EQ(out.X_WE.matrix(), ThroughWire(in).X_WE.matrix()) << i;
+
+    RobotTarget target;
+    target.X_WE = in.X_WE;
+    nsim_msgs_RobotTarget target_msg{};
+    ToMessage(target, target_msg, scratch);
+    RobotTarget target_out;
+    ASSERT_EQ(FromMessage(target_msg, target_out), "");
+    EXPECT_EQ(target_out.X_WE.matrix(), ThroughWire(target).X_WE.matrix()) << i;
+  }
+}
+
+TEST(Convert, AMarkerOnlyFrameCarriesNoRobot) {
+  SensorFrame in = SomeFrame();
+  in.has_robot = false;
+  nsim_msgs_SensorFrame msg{};
+  ConvertScratch scratch;
+  ToMessage(in, msg, scratch);
+  msg.X_WE.qw = kNaN;  // ignored: the robot fields are unset in a marker-only stream
+  SensorFrame out;
+  ASSERT_EQ(FromMessage(msg, out), "");
+  EXPECT_FALSE(out.has_robot);
+  EXPECT_TRUE(out.q.empty());
+  EXPECT_FALSE(out.entry_punctured);
+  EXPECT_EQ(out.p_WM, in.p_WM);
 }
 
 TEST(Convert, RobotTargetRoundTripKeepsPoseAndJoints) {
@@ -53,34 +111,14 @@ TEST(Convert, RobotTargetRoundTripKeepsPoseAndJoints) {
   EXPECT_EQ(out.bevel_angle, 1.5);
 }
 
-TEST(Convert, RobotStateEntryPointAndStatusRoundTrip) {
-  RobotState rs;
-  rs.X_WE = SomePose();
-  rs.q = {1, 2};
-  nsim_msgs_RobotState rs_msg{};
+TEST(Convert, StatusRoundTrip) {
   ConvertScratch scratch;
-  ToMessage(rs, rs_msg, scratch);
-  RobotState rs_out;
-  ASSERT_EQ(FromMessage(rs_msg, rs_out), "");
-  EXPECT_TRUE(rs_out.X_WE.isApprox(rs.X_WE, 1e-14));
-  EXPECT_EQ(rs_out.q, rs.q);
-
-  EntryPoint ep;
-  ep.punctured = true;
-  ep.p_WP = {0.01, 0.02, 0.03};
-  ep.n_W = {0, 1, 0};
-  nsim_msgs_EntryPoint ep_msg{};
-  ToMessage(ep, ep_msg, scratch);
-  EntryPoint ep_out;
-  ASSERT_EQ(FromMessage(ep_msg, ep_out), "");
-  EXPECT_TRUE(ep_out.punctured);
-  EXPECT_EQ(ep_out.p_WP, ep.p_WP);
-
   SimStatus st;
   st.sender = "direct_sim";
   st.state = RunState::kFinished;
   st.last_seq = 99;
   st.message = std::string(300, 'x');  // longer than the bounded string: truncated, not overflowed
+  st.scenario_hash = 0x0123456789abcdefull;
   nsim_msgs_SimStatus st_msg{};
   ToMessage(st, st_msg, scratch);
   SimStatus st_out;
@@ -89,16 +127,25 @@ TEST(Convert, RobotStateEntryPointAndStatusRoundTrip) {
   EXPECT_EQ(st_out.state, RunState::kFinished);
   EXPECT_EQ(st_out.last_seq, 99u);
   EXPECT_EQ(st_out.message.size(), 256u);
+  EXPECT_EQ(st_out.scenario_hash, 0x0123456789abcdefull);
 }
 
 TEST(Convert, InvalidMessagesAreNamed) {
   ConvertScratch scratch;
-  MarkerFrame mf;
+  SensorFrame mf = SomeFrame();
   mf.p_WM = {{0, 0, 0}, {0, kNaN, 0}};
-  nsim_msgs_MarkerFrame mf_msg{};
+  nsim_msgs_SensorFrame mf_msg{};
   ToMessage(mf, mf_msg, scratch);
-  MarkerFrame mf_out;
+  SensorFrame mf_out;
   EXPECT_EQ(FromMessage(mf_msg, mf_out), "p_WM is not finite (marker 1)");
+  mf.p_WM = {{0, 0, 0}};
+  mf.n_W = {0, 2, 0};
+  ToMessage(mf, mf_msg, scratch);
+  EXPECT_EQ(FromMessage(mf_msg, mf_out), "n_W norm is 2, expected 1");
+  mf.n_W = {0, 1, 0};
+  mf.bevel_angle = kNaN;
+  ToMessage(mf, mf_msg, scratch);
+  EXPECT_EQ(FromMessage(mf_msg, mf_out), "bevel_angle is not finite");
 
   RobotTarget rt;
   nsim_msgs_RobotTarget rt_msg{};

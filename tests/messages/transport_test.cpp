@@ -48,12 +48,12 @@ TEST(Transport, BadConfigIsAnInputError) {
 
 TEST(Transport, FramesArriveInOrderAndWallTimeIsStamped) {
   Participant p(LoopbackConfig());
-  Reader<MarkerFrame> reader(p, Qos::kLossless);
-  Writer<MarkerFrame> writer(p, Qos::kStateStream);
+  Reader<SensorFrame> reader(p, Qos::kLossless);
+  Writer<SensorFrame> writer(p, Qos::kStateStream);
   ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
   const int64_t before = WallTimeNs();
   for (int k = 0; k < 50; ++k) {
-    MarkerFrame f;
+    SensorFrame f;
     f.stamp.seq = k;
     f.stamp.sim_time = 0.01 * k;
     f.p_WM = {{k * 1e-3, 0, 0}};
@@ -101,18 +101,21 @@ TEST(Transport, PeerRunningIsAnotherProcessSayingRunning) {
   writer.Write(s);
   EXPECT_FALSE(WaitForPeerRunning(reader, "direct_sim", 0.2));
   s.state = RunState::kRunning;
+  s.scenario_hash = 77;
   writer.Write(s);
   const double start = MonotonicSeconds();
-  EXPECT_TRUE(WaitForPeerRunning(reader, "direct_sim", 5.0));
+  const std::optional<SimStatus> peer = WaitForPeerRunning(reader, "direct_sim", 5.0);
+  ASSERT_TRUE(peer.has_value());
+  EXPECT_EQ(peer->scenario_hash, 77u);  // the caller checks the peer runs its scenario
   EXPECT_LT(MonotonicSeconds() - start, 5.0);
 }
 
 TEST(Transport, InvalidSamplesAreDroppedAndCounted) {
   Participant p(LoopbackConfig());
-  Reader<MarkerFrame> reader(p, Qos::kLossless);
-  Writer<MarkerFrame> writer(p, Qos::kStateStream);
+  Reader<SensorFrame> reader(p, Qos::kLossless);
+  Writer<SensorFrame> writer(p, Qos::kStateStream);
   ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
-  MarkerFrame f;
+  SensorFrame f;
   f.p_WM = {{std::numeric_limits<double>::quiet_NaN(), 0, 0}};
   writer.Write(f);
   f.stamp.seq = 1;

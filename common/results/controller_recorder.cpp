@@ -1,0 +1,97 @@
+#include "common/results/controller_recorder.h"
+
+#include <iomanip>
+
+#include "common/core/error.h"
+#include "common/results/atomic_file.h"
+
+namespace nsim {
+namespace {
+
+using nlohmann::json;
+
+json Timing(const TimingStat& s) {
+  return {{"mean_ms", 1e3 * s.mean()}, {"max_ms", 1e3 * s.max}, {"count", s.count}};
+}
+
+}  // namespace
+
+ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(out_dir) {
+  const std::string path = out_dir_ + "/inverse.csv";
+  csv_.open(path);
+  if (!csv_) throw InputError(Str(path, ": cannot open for writing"));
+  csv_ << std::setprecision(17);
+  csv_ << "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
+          "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms\n";
+}
+
+void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
+  const ControllerRecord& r = loop.last_record();
+  csv_ << r.answers_seq << ',' << r.t << ',' << r.phase << ',' << r.path_index << ','
+       << r.valid << ',' << r.e_p_norm << ',' << r.horizon << ',' << r.predicted << ','
+       << r.model_tip.x() << ',' << r.model_tip.y() << ',' << r.model_tip.z() << ','
+       << 1e3 * r.timings.simulation << ',' << 1e3 * r.timings.jacobian << ','
+       << 1e3 * r.timings.total << '\n';
+}
+
+json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRunInfo& info) const {
+  const ControllerLoopConfig& c = loop.config();
+  const ControllerCounts& n = loop.counts();
+  const PredictionScore& score = loop.score();
+  json nrms = json::array(), rms = json::array(), bias = json::array();
+  for (const auto& v : score.NrmsPercent()) nrms.push_back(v ? json(*v) : json(nullptr));
+  for (double v : score.Rms()) rms.push_back(1e3 * v);
+  for (const Eigen::Vector3d& b : score.Bias()) bias.push_back({1e3 * b.x(), 1e3 * b.y(), 1e3 * b.z()});
+  return {{"ending", info.ending},
+          {"scenario_hash", info.scenario_hash},
+          {"transport", info.transport},
+          {"inverse_rate_hz", loop.loop_period().rate()},
+          {"targets_sent", n.targets},
+          {"frames_answered", n.answered},
+          {"frames_received", info.frames_received},
+          {"frames_missing", info.frames_missing},
+          {"frames_skipped", info.frames_skipped},
+          {"frames_out_of_order", info.frames_out_of_order},
+          {"rejected_frames", n.rejected_frames},
+          {"invalid_outputs", n.invalid_outputs},
+          {"last_rejection", n.last_rejection},
+          {"timings",
+           {{"model_step", Timing(loop.model_time())},
+            {"jacobian", Timing(loop.jacobian_time())},
+            {"total", Timing(loop.total_time())},
+            {"loop_period", Timing(loop.loop_period())},
+            {"frame_sent_to_target_sent", Timing(info.frame_to_target)}}},
+          {"nrms_percent", nrms},
+          {"prediction_rms_mm", rms},
+          {"prediction_bias_mm", bias},
+          {"predictions_scored", score.scored()},
+          {"settings",
+           {{"config", info.scenario},
+            {"mesh", info.mesh},
+            {"mesh_nodes", loop.mesh().num_nodes()},
+            {"dof", ToString(c.control.dof)},
+            {"prediction", c.prediction_enabled},
+            {"filter", ToString(c.prediction.filter)},
+            {"order", c.prediction.order},
+            {"optimize_window", c.prediction.optimize_window},
+            {"search_lead", c.prediction.search_lead},
+            {"search_interval", c.prediction.search_interval},
+            {"prediction_displacement", c.prediction_displacement},
+            {"localization_delay_s", c.horizon.localization_delay},
+            {"young_modulus_factor", c.model.young_modulus_factor},
+            {"gains",
+             {{"position", c.control.gains.position},
+              {"angle", c.control.gains.angle},
+              {"entry", c.control.gains.entry}}},
+            {"regularization", c.control.law.regularization},
+            {"mode", info.lockstep ? "lockstep" : "realtime"},
+            {"domain", info.domain},
+            {"partition", info.partition}}}};
+}
+
+void ControllerRecorder::WriteSummary(const ControllerLoop& loop,
+                                      const ControllerRunInfo& info) const {
+  WriteFileAtomically(out_dir_ + "/summary.json", Summary(loop, info).dump(2) + "\n");
+}
+
+}  // namespace nsim

@@ -1,0 +1,182 @@
+#include "common/results/patient_recorder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+
+#include "common/core/error.h"
+#include "common/core/statistics.h"
+#include "common/results/atomic_file.h"
+
+namespace nsim {
+namespace {
+
+using nlohmann::json;
+
+json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+json StatsMs(const std::vector<double>& ms) {
+  const SampleSummary s = Summarize(ms);
+  return {{"mean", s.mean}, {"median", s.median}, {"p90", s.p90}, {"p95", s.p95},
+          {"p99", s.p99},   {"max", s.max},       {"count", s.count}};
+}
+
+void Open(std::ofstream& out, const std::string& path) {
+  out.open(path);
+  if (!out) throw InputError(Str("--out: cannot write ", path));
+  out << std::setprecision(17);
+}
+
+}  // namespace
+
+PatientRecorder::PatientRecorder(const std::string& out_dir) : out_dir_(out_dir) {
+  Open(csv_, out_dir_ + "/timeseries.csv");
+  csv_ << "t,tip_target_distance_m,e_p_x,e_p_y,e_p_z,phase,m0_x,m0_y,m0_z,target_x,target_y,"
+          "target_z,tip_x,tip_y,tip_z,robot_x,robot_y,robot_z,robot_qw,robot_qx,robot_qy,"
+          "robot_qz,holding\n";
+  Open(steps_csv_, out_dir_ + "/step_times.csv");
+  steps_csv_ << "step,t,step_ms,holding\n";
+}
+
+void PatientRecorder::AddFrame(const PatientLoop& loop) {
+  const PatientRecord& r = loop.record();
+  const SensorFrame& f = loop.frame();
+  last_distance_ = r.distance;
+  last_e_p_ = r.e_p;
+  last_phase_ = r.phase;
+  min_distance_ = std::min(min_distance_, r.distance);
+  distance_log_.emplace_back(r.t, r.distance);
+  if (r.skin.punctured && !puncture_time_[kSkinTissue]) puncture_time_[kSkinTissue] = r.skin.puncture_time;
+  if (r.liver.punctured && !puncture_time_[kLiverTissue])
+    puncture_time_[kLiverTissue] = r.liver.puncture_time;
+  ++frames_;
+  const Eigen::Vector3d& m0 = f.p_WM.at(0);
+  const Eigen::Vector3d p = f.X_WE.translation();
+  const Eigen::Quaterniond q(f.X_WE.linear());
+  csv_ << r.t << ',' << r.distance << ',' << r.e_p.x() << ',' << r.e_p.y() << ',' << r.e_p.z()
+       << ',' << r.phase << ',' << m0.x() << ',' << m0.y() << ',' << m0.z() << ','
+       << r.target.x() << ',' << r.target.y() << ',' << r.target.z() << ',' << r.tip.x() << ','
+       << r.tip.y() << ',' << r.tip.z() << ',' << p.x() << ',' << p.y() << ',' << p.z() << ','
+       << q.w() << ',' << q.x() << ',' << q.y() << ',' << q.z() << ',' << (r.holding ? 1 : 0)
+       << '\n';
+}
+
+void PatientRecorder::AddStep(const PatientLoop& loop) {
+  const PatientStepReport& s = loop.last_step();
+  step_ms_.push_back(s.wall_ms);
+  if (s.holding) ++hold_steps_;
+  if (s.scene.num_active_rib_contacts > 0) ++rib_contact_steps_;
+  if (!s.scene.solve.converged) ++unconverged_solves_;
+  max_rib_penetration_ = std::max(max_rib_penetration_, s.max_rib_penetration);
+  steps_csv_ << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ','
+             << (s.holding ? 1 : 0) << '\n';
+}
+
+double PatientRecorder::median_step_ms() const { return Median(step_ms_); }
+
+json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& info) const {
+  const PatientLoopConfig& c = loop.config();
+  const PatientSceneConfig& sc = c.scene;
+  json j;
+  j["scenario"] = info.scenario;
+  j["scenario_hash"] = info.scenario_hash;
+  j["exit"] = info.exit;
+  j["mode"] = info.realtime ? "realtime" : "lockstep";
+  j["transport"] = info.transport;
+  j["controller"] = c.controller;
+  j["steps"] = loop.steps();
+  j["time_step_s"] = sc.time_step;
+  j["simulated_time_s"] = loop.time();
+  j["wall_time_s"] = info.wall_time;
+  j["step_time_ms"] = StatsMs(step_ms_);
+  const double rate = info.wall_time > 0 ? loop.steps() / info.wall_time : 0.0;
+  const double mean_ms = Summarize(step_ms_).mean;
+  j["rate_hz"] = rate;
+  j["direct_rate_hz"] = rate;
+  j["physics_rate_hz"] = mean_ms > 0 ? 1e3 / mean_ms : 0.0;
+  json punctured = json::object();
+  const char* names[] = {"skin", "liver"};
+  for (int tissue : {kSkinTissue, kLiverTissue})
+    punctured[names[tissue]] = {
+        {"punctured", puncture_time_[tissue].has_value()},
+        {"time_s", puncture_time_[tissue] ? json(*puncture_time_[tissue]) : json(nullptr)}};
+  j["punctured"] = punctured;
+  // thesis fig. 5.9: the final error is the mean true tip-to-target distance over the
+  // steady-state window, its amplitude the peak-to-peak there
+  const double t_end = distance_log_.empty() ? 0.0 : distance_log_.back().first;
+  const double t_begin = t_end - kSteadyFraction * t_end;
+  double sum = 0.0, lo = INFINITY, hi = -INFINITY;
+  int n = 0;
+  for (const auto& [t, d] : distance_log_) {
+    if (t < t_begin - 1e-9) continue;
+    sum += d;
+    lo = std::min(lo, d);
+    hi = std::max(hi, d);
+    ++n;
+  }
+  j["final_error_mm"] = n ? json(1e3 * sum / n) : json(nullptr);
+  j["final_error_amplitude_mm"] = n ? json(1e3 * (hi - lo)) : json(nullptr);
+  j["steady_window_s"] = {t_begin, t_end};
+  j["steady_window_samples"] = n;
+  j["loop_latency_ms"] = StatsMs(info.latency_ms);
+  j["final_tip_to_target_distance_mm"] = 1e3 * last_distance_;
+  j["min_tip_to_target_distance_mm"] = 1e3 * min_distance_;
+  j["final_e_p_m"] = Vec(last_e_p_);
+  j["final_phase"] = last_phase_;
+  const GateCounts& g = loop.gate().counts();
+  json rejected = json::object(), clamped = json::object();
+  for (int r = 0; r < kNumGateReasons; ++r) {
+    const GateReason reason = static_cast<GateReason>(r);
+    (r <= static_cast<int>(GateReason::kOverLimit) ? rejected : clamped)[ToString(reason)] =
+        g.by_reason[r];
+  }
+  j["targets"] = {{"received", g.received},
+                  {"accepted", g.accepted},
+                  {"rejected_total", g.rejected()},
+                  {"rejected", rejected},
+                  {"clamped", clamped},
+                  {"transport_invalid", info.transport_invalid},
+                  {"hold_steps", hold_steps_},
+                  {"lockstep_timeouts", info.lockstep_timeouts}};
+  j["controller_lost"] = info.controller_lost_time.has_value();
+  j["controller_lost_time_s"] =
+      info.controller_lost_time ? json(*info.controller_lost_time) : json(nullptr);
+  j["max_rib_penetration_mm"] = 1e3 * max_rib_penetration_;
+  j["rib_contact_steps"] = rib_contact_steps_;
+  j["unconverged_constraint_solves"] = unconverged_solves_;
+  j["frames_published"] = frames_;
+  j["outputs"] = {{"timeseries", "timeseries.csv"},
+                  {"step_times", "step_times.csv"},
+                  {"video", info.video ? json("view.avi") : json(nullptr)},
+                  {"png", info.png ? json("view.png") : json(nullptr)},
+                  {"vtk_snapshots", info.vtk_snapshots}};
+  const TargetGateConfig& safety = c.safety;
+  j["settings"] = {{"seed", info.seed},
+                   {"duration_s", info.duration},
+                   {"latency_steps", info.latency_steps},
+                   {"liver_mesh", info.liver_mesh},
+                   {"liver_nodes", loop.scene().model().liver().get_mesh().num_nodes()},
+                   {"mode", info.realtime ? "realtime" : "lockstep"},
+                   {"liver_young_modulus_pa", sc.liver.young_modulus},
+                   {"liver_poisson_ratio", sc.liver.poisson_ratio},
+                   {"skin_young_modulus_pa", sc.skin.fem.young_modulus},
+                   {"needle", sc.needle.kind == NeedleKind::kRigid ? "rigid" : "flexible"},
+                   {"bevel", sc.needle.coupling.bevel.enabled},
+                   {"robot", c.robot.kind == RobotKind::kCartesian ? "cartesian" : "iiwa"},
+                   {"insertion_speed_m_s", c.insertion.speed},
+                   {"breathing_period_s", sc.breathing.period},
+                   {"breathing_si_amplitude_m", sc.breathing.si_amplitude},
+                   {"entry_m", Vec(sc.entry_W)},
+                   {"target_m", Vec(sc.target_W)},
+                   {"safety_max_age_s", safety.max_age},
+                   {"safety_hold_timeout_s", safety.hold_timeout},
+                   {"safety_over_limit",
+                    safety.over_limit == OverLimitAction::kClamp ? "clamp" : "reject"}};
+  return j;
+}
+
+void PatientRecorder::WriteSummary(const PatientLoop& loop, const PatientRunInfo& info) const {
+  WriteFileAtomically(out_dir_ + "/summary.json", Summary(loop, info).dump(2) + "\n");
+}
+
+}  // namespace nsim

@@ -1,0 +1,76 @@
+#pragma once
+// What the patient side writes and reports (README "Outputs"): timeseries.csv, one row per
+// published frame with the true tip-to-target distance, e_p, phase, marker 0, target, tip and
+// robot pose (deterministic: a lockstep run gives the same file byte for byte, in-process or
+// over DDS); step_times.csv, the wall time of each physics step; and the summary.json of
+// direct_sim: the final error and amplitude over the steady-state window (thesis fig. 5.9),
+// step-time statistics, rates, punctures, the gate's counts, the loop latency and the
+// settings.
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/scene/patient_loop.h"
+
+namespace nsim {
+
+/// Facts of a run that the patient loop does not know: how it was driven.
+struct PatientRunInfo {
+  std::string scenario;        ///< the scenario file
+  uint64_t scenario_hash = 0;  ///< of its shared part
+  std::string liver_mesh;      ///< path of the patient's liver mesh
+  uint64_t seed = 0;           ///< breathing seed
+  double duration = 0.0;       ///< requested simulated time (s)
+  bool realtime = false;       ///< realtime (wall-clock paced) or lockstep
+  int latency_steps = 0;       ///< lockstep latency d (steps)
+  std::string transport = "dds";  ///< "dds" or "in_process"
+  std::string exit = "completed";  ///< completed, diverged, interrupted, controller_lost, ...
+  double wall_time = 0.0;      ///< (s)
+  std::vector<double> latency_ms;  ///< per received target: frame sent -> target received (ms)
+  uint64_t lockstep_timeouts = 0;  ///< lockstep steps that went on without the awaited answer
+  uint64_t transport_invalid = 0;  ///< targets dropped by the transport (malformed)
+  std::optional<double> controller_lost_time;  ///< simulated time the controller was lost (s)
+  bool video = false, png = false;  ///< outputs written
+  int vtk_snapshots = 0;
+};
+
+class PatientRecorder {
+ public:
+  /// The share of the run at its end over which the final error is averaged (thesis fig. 5.9:
+  /// the steady state; 20 % of a 20 s run is one breathing period).
+  static constexpr double kSteadyFraction = 0.2;
+
+  /// Opens DIR/timeseries.csv and DIR/step_times.csv (InputError naming the file when it
+  /// cannot).
+  explicit PatientRecorder(const std::string& out_dir);
+
+  /// A published frame: its row of timeseries.csv and the error statistics.
+  void AddFrame(const PatientLoop& loop);
+  /// A physics step that was taken.
+  void AddStep(const PatientLoop& loop);
+
+  /// direct_sim's summary.json.
+  nlohmann::json Summary(const PatientLoop& loop, const PatientRunInfo& info) const;
+  /// Writes Summary() to DIR/summary.json atomically.
+  void WriteSummary(const PatientLoop& loop, const PatientRunInfo& info) const;
+
+  double median_step_ms() const;
+  double last_distance() const { return last_distance_; }
+  const std::vector<double>& step_ms() const { return step_ms_; }
+
+ private:
+  std::string out_dir_;
+  std::ofstream csv_, steps_csv_;
+  std::vector<std::pair<double, double>> distance_log_;  // (t, true tip-target distance (m))
+  std::vector<double> step_ms_;
+  double last_distance_ = 0.0, min_distance_ = INFINITY, max_rib_penetration_ = 0.0;
+  Eigen::Vector3d last_e_p_ = Eigen::Vector3d::Zero();
+  int last_phase_ = 0;
+  uint64_t hold_steps_ = 0, rib_contact_steps_ = 0, unconverged_solves_ = 0, frames_ = 0;
+  std::optional<double> puncture_time_[2];
+};
+
+}  // namespace nsim

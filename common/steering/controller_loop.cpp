@@ -1,0 +1,131 @@
+#include "common/steering/controller_loop.h"
+
+#include <cmath>
+
+#include "common/core/clock.h"
+#include "common/core/error.h"
+
+namespace nsim {
+
+ControllerLoop::ControllerLoop(const ControllerLoopConfig& config, TetMesh mesh)
+    : config_(config), mesh_(std::move(mesh)), horizon_(config.horizon) {
+  config_.model.Validate();
+  config_.path.Validate();
+  config_.control.Validate();
+  config_.prediction.Validate();
+}
+
+ControllerLoop::~ControllerLoop() = default;
+
+void ControllerLoop::Reject(const std::string& why) {
+  ++counts_.rejected_frames;
+  counts_.last_rejection = why;
+}
+
+bool ControllerLoop::Accept(const SensorFrame& frame) {
+  if (observed_any_ && !(frame.stamp.sim_time > last_observed_time_)) {
+    Reject(Str("frame ", frame.stamp.seq, " at t = ", frame.stamp.sim_time,
+               " s does not follow t = ", last_observed_time_, " s"));
+    return false;
+  }
+  if (!predictor_) {
+    if (frame.p_WM.empty()) {
+      Reject(Str("frame ", frame.stamp.seq, " has no markers"));
+      return false;
+    }
+    predictor_ =
+        std::make_unique<MarkerPredictor>(config_.prediction, static_cast<int>(frame.p_WM.size()));
+  }
+  try {
+    predictor_->Update(frame.markers());
+  } catch (const InputError& e) {
+    Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
+    return false;
+  }
+  score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
+  observed_any_ = true;
+  last_observed_time_ = frame.stamp.sim_time;
+  ++counts_.observed;
+  return true;
+}
+
+void ControllerLoop::Observe(const SensorFrame& frame) { Accept(frame); }
+
+std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
+  if (!Accept(frame)) return std::nullopt;
+  if (!frame.has_robot) {
+    Reject(Str("frame ", frame.stamp.seq, " has no robot state (a marker-only stream)"));
+    return std::nullopt;
+  }
+  if (!controller_)  // InputError here is fatal: the model cannot be built from the config
+    controller_ = std::make_unique<SteeringController>(config_.model, config_.path,
+                                                       config_.control, mesh_, frame.X_WE);
+  const double t = frame.stamp.sim_time;
+  ControllerRecord& r = record_;
+  r = ControllerRecord();
+  r.answers_seq = frame.stamp.seq;
+  r.t = t;
+  ++counts_.answered;
+  SteeringInput input;
+  try {
+    horizon_.AddLoopTime(t);
+    r.horizon = horizon_.CalcHorizon(t);
+    input.X_WE = frame.X_WE;
+    if (frame.q.size() == 7) input.q = Eigen::Map<const Vector7d>(frame.q.data());
+    input.entry = frame.entry();
+    r.predicted = config_.prediction_enabled && predictor_->ready() && std::isfinite(r.horizon);
+    if (r.predicted) {
+      predictor_->Predict(r.horizon, &input.p_WM);
+      if (config_.prediction_displacement) {
+        predictor_->Predict(0.0, &fit_now_);
+        for (size_t m = 0; m < input.p_WM.size(); ++m)
+          input.p_WM[m] = frame.p_WM[m] + (input.p_WM[m] - fit_now_[m]);
+      }
+      score_.AddPrediction(t + r.horizon, input.p_WM, frame.p_WM);
+    } else {
+      input.p_WM = frame.p_WM;
+    }
+  } catch (const InputError& e) {
+    Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
+    return std::nullopt;
+  }
+  SteeringOutput out;
+  try {
+    out = controller_->Update(input);
+  } catch (const InputError& e) {
+    Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
+    return std::nullopt;
+  }
+  model_time_.Add(out.timings.simulation);
+  jacobian_time_.Add(out.timings.jacobian);
+  total_time_.Add(out.timings.total);
+  const double done = MonotonicSeconds();
+  if (last_answer_wall_ > 0) loop_period_.Add(done - last_answer_wall_);
+  last_answer_wall_ = done;
+  phase_ = static_cast<int>(out.phase) - 1;
+  r.phase = static_cast<int>(out.phase);
+  r.path_index = out.path_index;
+  r.valid = out.valid;
+  r.e_p_norm = out.e.size() >= 3 ? out.e.head<3>().norm() : 0.0;
+  r.model_tip = out.p_WTip;
+  r.timings = out.timings;
+  if (!out.valid) {
+    ++counts_.invalid_outputs;
+    return std::nullopt;
+  }
+  RobotTarget target;
+  target.stamp.seq = counts_.targets++;
+  target.stamp.sim_time = t;
+  target.answers_seq = frame.stamp.seq;
+  target.bevel_angle = frame.bevel_angle;
+  if (config_.control.dof == SteeringDof::kCartesian6) {
+    target.mode = TargetMode::kCartesian;
+    target.X_WE = out.X_WE_target;
+  } else {
+    target.mode = TargetMode::kJoint;
+    target.q.assign(out.q_target.data(), out.q_target.data() + 7);
+  }
+  return target;
+}
+
+}  // namespace nsim

@@ -1,0 +1,117 @@
+#pragma once
+// The controller side of the closed loop, without transport (DESIGN.md "The two loops"): the
+// marker predictor and the horizon (thesis §4.1), the registered liver model and the steering
+// controller (§3.2-3.3). Step() takes one sensor frame and answers it with a robot target, or
+// with nothing when the controller cannot compute a valid one (the robot then keeps its last
+// command and the patient side's gate makes it hold after safety.hold_timeout). Frames that
+// are not answered (realtime: older than the newest) still feed the predictor (Observe).
+// The DDS pump of inverse_sim and the in-process closed loop drive the same class.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/core/samples.h"
+#include "common/core/statistics.h"
+#include "common/mesh/tet_mesh.h"
+#include "common/prediction/horizon_estimator.h"
+#include "common/prediction/marker_predictor.h"
+#include "common/prediction/prediction_score.h"
+#include "common/steering/steering_config.h"
+#include "common/steering/steering_controller.h"
+
+namespace nsim {
+
+/// Everything the controller loop is made of.
+struct ControllerLoopConfig {
+  InverseModelConfig model;
+  SteeringPathConfig path;
+  SteeringControlConfig control;
+  bool prediction_enabled = true;  ///< register to predicted markers (thesis fig. 4.4)
+  PredictionConfig prediction;
+  /// Register to the measured markers plus the predicted displacement over the horizon
+  /// (prediction at t + h minus the filter's own fit at t) instead of the filter's
+  /// reconstruction (which keeps only the markers' first principal axis).
+  bool prediction_displacement = true;
+  HorizonConfig horizon;
+};
+
+/// One answered frame, for the controller's log (inverse.csv).
+struct ControllerRecord {
+  uint64_t answers_seq = 0;
+  double t = 0.0;         ///< simulation time of the frame (s)
+  int phase = 0;          ///< InsertionPhase as a number
+  int path_index = 0;
+  bool valid = false;     ///< a target was produced
+  double e_p_norm = 0.0;  ///< |e_p| in the model (m)
+  double horizon = 0.0;   ///< prediction horizon (s); NaN before the horizon is known
+  bool predicted = false; ///< registered to predicted markers
+  Eigen::Vector3d model_tip = Eigen::Vector3d::Zero();
+  SteeringTimings timings;
+};
+
+/// Counts of what the loop did.
+struct ControllerCounts {
+  uint64_t answered = 0;         ///< frames answered (valid or not)
+  uint64_t targets = 0;          ///< targets produced
+  uint64_t invalid_outputs = 0;  ///< answered without a target (non-finite objectives)
+  uint64_t rejected_frames = 0;  ///< frames refused (malformed, out of order, no robot state)
+  uint64_t observed = 0;         ///< frames fed to the predictor
+  std::string last_rejection;
+};
+
+class ControllerLoop {
+ public:
+  /// Validates the configs (InputError). The model is built at the first answered frame, with
+  /// the needle at the measured flange pose.
+  ControllerLoop(const ControllerLoopConfig& config, TetMesh mesh);
+  ~ControllerLoop();
+
+  /// Feeds a frame that will not be answered to the predictor and the prediction score. A
+  /// malformed frame is counted as rejected.
+  void Observe(const SensorFrame& frame);
+  /// Observes `frame` and answers it: registration, objectives, Jacobian and law. Returns the
+  /// target (stamped with answers_seq = frame.stamp.seq), or nothing for a rejected frame or an
+  /// invalid output. InputError when the model cannot be built from the config (first frame);
+  /// SolverError when a model solve diverged.
+  std::optional<RobotTarget> Step(const SensorFrame& frame);
+
+  const ControllerRecord& last_record() const { return record_; }
+  const ControllerCounts& counts() const { return counts_; }
+  const PredictionScore& score() const { return score_; }
+  /// Wall-clock cost of the model step, the Jacobian and the whole control step (s).
+  const TimingStat& model_time() const { return model_time_; }
+  const TimingStat& jacobian_time() const { return jacobian_time_; }
+  const TimingStat& total_time() const { return total_time_; }
+  /// Wall time between successive answers (s): its rate is the controller's loop rate.
+  const TimingStat& loop_period() const { return loop_period_; }
+  /// The current insertion phase (0 outside, 1 skin, 2 liver), for status messages.
+  int phase() const { return phase_; }
+  const ControllerLoopConfig& config() const { return config_; }
+  const TetMesh& mesh() const { return mesh_; }
+  /// The steering controller (null before the first answered frame).
+  const SteeringController* controller() const { return controller_.get(); }
+
+ private:
+  bool Accept(const SensorFrame& frame);  // validity and order checks; counts a rejection
+  void Reject(const std::string& why);
+
+  ControllerLoopConfig config_;
+  TetMesh mesh_;
+  std::unique_ptr<SteeringController> controller_;
+  std::unique_ptr<MarkerPredictor> predictor_;
+  HorizonEstimator horizon_;
+  PredictionScore score_;
+  ControllerCounts counts_;
+  ControllerRecord record_;
+  TimingStat model_time_, jacobian_time_, total_time_, loop_period_;
+  double last_answer_wall_ = -1.0;
+  double last_observed_time_ = -1.0;
+  bool observed_any_ = false;
+  int phase_ = 0;
+  std::vector<Eigen::Vector3d> fit_now_;
+};
+
+}  // namespace nsim

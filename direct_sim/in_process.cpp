@@ -1,0 +1,75 @@
+#include "direct_sim/in_process.h"
+
+#include <cmath>
+#include <iostream>
+
+#include "common/core/clock.h"
+#include "common/core/error.h"
+#include "common/core/interrupt.h"
+#include "common/core/wire_pose.h"
+#include "common/scene/lockstep_targets.h"
+
+namespace nsim {
+namespace {
+
+// the controller's answer to the patient's current frame, as the patient would receive it
+std::optional<RobotTarget> Answer(ControllerLoop& controller, ControllerRecorder& recorder,
+                                  const PatientLoop& patient) {
+  const uint64_t before = controller.counts().answered;
+  std::optional<RobotTarget> target = controller.Step(ThroughWire(patient.frame()));
+  if (controller.counts().answered > before) recorder.AddAnswer(controller);
+  if (target) *target = ThroughWire(*target);
+  return target;
+}
+
+}  // namespace
+
+int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, ControllerLoop& controller,
+                           ControllerRecorder& controller_recorder, const RunConfig& run,
+                           PatientRunInfo* pinfo, ControllerRunInfo* cinfo) {
+  const int64_t steps = static_cast<int64_t>(std::llround(run.duration / patient.config().scene.time_step));
+  LockstepTargets delay(run.latency_steps);
+  const double start = MonotonicSeconds();
+  int code = 0;
+  try {
+    for (int64_t k = 0; k < steps; ++k) {
+      if (InterruptRequested()) {
+        pinfo->exit = cinfo->ending = "interrupted";
+        code = 1;
+        break;
+      }
+      if (!patient.finite()) {
+        std::cerr << "direct_sim run: the simulation diverged at t = " << patient.time() << " s\n";
+        pinfo->exit = "diverged";
+        code = 1;
+        break;
+      }
+      outputs.OnFrame(patient);
+      if (std::optional<RobotTarget> target = Answer(controller, controller_recorder, patient))
+        delay.Add(*target);
+      if (!delay.Ready(k)) ++pinfo->lockstep_timeouts;  // the controller gave no answer
+      patient.Step(delay.TakeFor(k));
+      outputs.OnStep(patient, steps);
+    }
+    if (code == 0 && !patient.finite()) {
+      std::cerr << "direct_sim run: the simulation diverged at t = " << patient.time() << " s\n";
+      pinfo->exit = "diverged";
+      code = 1;
+    } else if (code == 0) {  // the final state, answered like over DDS
+      outputs.OnFrame(patient);
+      Answer(controller, controller_recorder, patient);
+    }
+  } catch (const SolverError& e) {
+    std::cerr << "direct_sim run: runtime failure at t = " << patient.time() << " s: " << e.what()
+              << "\n";
+    pinfo->exit = "diverged";
+    cinfo->ending = "solver_failed";
+    code = 1;
+  }
+  pinfo->wall_time = MonotonicSeconds() - start;
+  if (code == 0) cinfo->ending = "direct_finished";
+  cinfo->frames_received = controller.counts().observed;
+  return code;
+}
+
+}  // namespace nsim

@@ -1,0 +1,25 @@
+#pragma once
+// The closed loop in one process (DESIGN.md "Time, modes and determinism"): the patient loop
+// and the controller loop stepped in lockstep with a simulated latency of d steps, frames and
+// targets passed as they would cross the wire (poses through their quaternion form). The
+// same rule as the DDS lockstep run (LockstepTargets), so the same scenario gives the same
+// timeseries.csv and final error to the last digit, without the network; for tests and
+// batches.
+
+#include "common/results/controller_recorder.h"
+#include "common/results/patient_recorder.h"
+#include "common/scene/patient_loop.h"
+#include "common/steering/controller_loop.h"
+#include "direct_sim/patient_outputs.h"
+#include "direct_sim/scenario_loader.h"
+
+namespace nsim {
+
+/// Runs the insertion; fills both infos and returns the exit code (0 completed, 1 runtime
+/// failure: diverged, interrupted; 2 a controller model that cannot be built from the
+/// scenario).
+int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, ControllerLoop& controller,
+                           ControllerRecorder& controller_recorder, const RunConfig& run,
+                           PatientRunInfo* patient_info, ControllerRunInfo* controller_info);
+
+}  // namespace nsim

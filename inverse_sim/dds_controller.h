@@ -1,0 +1,31 @@
+#pragma once
+// The controller's pump between DDS and the ControllerLoop: it reads direct_sim's sensor
+// frames and status, answers frames with robot targets (lockstep: every frame in order;
+// realtime: the newest, older ones only feed the predictor), and stops when direct_sim
+// finishes, dies, or sends a different scenario (its status's scenario hash).
+
+#include <string>
+
+#include "common/results/controller_recorder.h"
+#include "common/steering/controller_loop.h"
+#include "messages/transport.h"
+
+namespace nsim {
+
+struct ControllerPumpOptions {
+  transport::TransportConfig transport;
+  bool lockstep = true;
+  double timeout = 3600.0;       ///< give up after this long in all (s)
+  double start_timeout = 60.0;   ///< give up if direct_sim is not seen within this (s)
+  uint64_t scenario_hash = 0;    ///< ours; direct_sim's must equal it
+  bool quiet = false;
+};
+
+/// Runs until the end of the insertion; fills `info` (ending, frame counts, latencies) and
+/// returns the exit code: 0 direct_sim finished, 1 runtime failure (direct_sim lost, timeout,
+/// interrupted, a diverged solve), 2 bad input (a model that cannot be built from the scenario,
+/// or a direct_sim running another scenario).
+int RunControllerOverDds(ControllerLoop& loop, ControllerRecorder& recorder,
+                         const ControllerPumpOptions& options, ControllerRunInfo* info);
+
+}  // namespace nsim

@@ -1,0 +1,98 @@
+// The controller loop without transport: it refuses frames it cannot use, feeds the predictor
+// with frames it does not answer, and closes the loop in-process with the patient loop on the
+// coarse scenario (liver_700 on both sides): the needle goes through the skin into the liver
+// towards the target, every frame answered, no target rejected by the patient's gate.
+#include "common/steering/controller_loop.h"
+
+#include <gtest/gtest.h>
+
+#include "common/core/wire_pose.h"
+#include "common/mesh/gmsh_reader.h"
+#include "common/scene/lockstep_targets.h"
+#include "common/scene/patient_loop.h"
+#include "direct_sim/scenario_loader.h"
+#include "inverse_sim/scenario_loader.h"
+
+namespace nsim {
+namespace {
+
+const std::string kScenario =
+    std::string(NSIM_SOURCE_DIR) + "/configs/scenarios/liver_test_coarse.yaml";
+
+struct Loops {
+  Loops()
+      : direct(LoadDirectScenario(kScenario)),
+        inverse(LoadInverseScenario(kScenario)),
+        patient(direct.LoopConfig(true), direct.liver_mesh, direct.skin_mesh),
+        controller(inverse.LoopConfig(), ReadGmshMesh(inverse.mesh_path)) {}
+  DirectScenario direct;
+  InverseScenario inverse;
+  PatientLoop patient;
+  ControllerLoop controller;
+};
+
+TEST(ControllerLoopTest, RefusesFramesItCannotUse) {
+  Loops loops;
+  SensorFrame frame = loops.patient.frame();
+  frame.has_robot = false;  // a marker-only stream: nothing to steer
+  EXPECT_FALSE(loops.controller.Step(frame).has_value());
+  EXPECT_EQ(loops.controller.counts().rejected_frames, 1u);
+  EXPECT_NE(loops.controller.counts().last_rejection.find("no robot state"), std::string::npos);
+  // the same time again: not a new frame
+  frame.has_robot = true;
+  EXPECT_FALSE(loops.controller.Step(frame).has_value());
+  EXPECT_EQ(loops.controller.counts().rejected_frames, 2u);
+  // a wrong marker count
+  frame.stamp.sim_time += 0.02;
+  frame.p_WM.pop_back();
+  EXPECT_FALSE(loops.controller.Step(frame).has_value());
+  EXPECT_EQ(loops.controller.counts().rejected_frames, 3u);
+  EXPECT_EQ(loops.controller.counts().targets, 0u);
+}
+
+TEST(ControllerLoopTest, AnswersEachFrameWithATargetForItsSequenceNumber) {
+  Loops loops;
+  for (int k = 0; k < 5; ++k) {
+    const std::optional<RobotTarget> target = loops.controller.Step(loops.patient.frame());
+    ASSERT_TRUE(target.has_value()) << loops.controller.counts().last_rejection;
+    EXPECT_EQ(target->answers_seq, loops.patient.frame().stamp.seq);
+    EXPECT_EQ(target->stamp.seq, static_cast<uint64_t>(k));
+    EXPECT_EQ(target->mode, TargetMode::kCartesian);
+    EXPECT_EQ(loops.controller.last_record().answers_seq, loops.patient.frame().stamp.seq);
+    loops.patient.Step(*target);
+    EXPECT_TRUE(loops.patient.gate().counts().rejected() == 0);
+  }
+  // a frame only observed feeds the predictor and the score, and is not answered
+  loops.controller.Observe(loops.patient.Step());
+  EXPECT_EQ(loops.controller.counts().observed, 6u);
+  EXPECT_EQ(loops.controller.counts().answered, 5u);
+}
+
+// the closed loop in-process, lockstep with a latency of 1 step
+TEST(ControllerLoopTest, ClosedLoopInProcessInsertsTowardsTheTarget) {
+  Loops loops;
+  LockstepTargets delay(1);
+  const double start_distance = loops.patient.record().distance;
+  const int steps = 300;  // 6 s: through the skin (at ~1.5 s) into the liver
+  for (int k = 0; k < steps; ++k) {
+    std::optional<RobotTarget> target = loops.controller.Step(ThroughWire(loops.patient.frame()));
+    ASSERT_TRUE(target.has_value()) << "step " << k << ": " << loops.controller.counts().last_rejection;
+    delay.Add(ThroughWire(*target));
+    ASSERT_TRUE(delay.Ready(k));
+    loops.patient.Step(delay.TakeFor(k));
+    ASSERT_TRUE(loops.patient.finite());
+  }
+  const PatientRecord& r = loops.patient.record();
+  EXPECT_TRUE(r.skin.punctured);
+  EXPECT_TRUE(r.liver.punctured);
+  EXPECT_LT(r.distance, 0.5 * start_distance);
+  EXPECT_EQ(loops.patient.gate().counts().accepted, static_cast<uint64_t>(steps - 1));
+  EXPECT_EQ(loops.patient.gate().counts().rejected(), 0u);
+  EXPECT_EQ(loops.controller.counts().answered, static_cast<uint64_t>(steps));
+  EXPECT_EQ(loops.controller.counts().rejected_frames, 0u);
+  EXPECT_GT(loops.controller.loop_period().count, 0u);
+  EXPECT_EQ(loops.controller.phase(), 2);  // the model too knows the needle is in the liver
+}
+
+}  // namespace
+}  // namespace nsim
