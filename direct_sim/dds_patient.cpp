@@ -121,6 +121,11 @@ class PatientPump {
                     kPeerSettle_s);
       return 0;
     }
+    if (peer->state == RunState::kFailed && peer->scenario_hash == status_.scenario_hash) {
+      std::cerr << "direct_sim run: the controller failed before the start: " << peer->message
+                << "\n";
+      return 1;
+    }
     if (peer->scenario_hash != 0 && peer->scenario_hash != status_.scenario_hash) {
       std::cerr << "direct_sim run: the controller runs another scenario (shared-part hash "
                 << std::hex << peer->scenario_hash << ", ours " << status_.scenario_hash

@@ -236,7 +236,8 @@ std::optional<SimStatus> WaitForPeerRunning(Reader<SimStatus>& reader, const std
     statuses.clear();
     reader.Take(statuses);
     for (const SimStatus& s : statuses)
-      if (s.sender != self && s.state == RunState::kRunning) return s;
+      if (s.sender != self && (s.state == RunState::kRunning || s.state == RunState::kFailed))
+        return s;
     const double left = end - MonotonicSeconds();
     if (left <= 0) return std::nullopt;
     reader.Wait(std::min(0.02, left));

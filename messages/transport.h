@@ -126,8 +126,9 @@ class Reader {
   ReaderHealth health_;
 };
 
-/// Waits until a process other than `self` publishes a running status and returns it (its
-/// scenario_hash is checked by the caller); nothing on timeout. A
+/// Waits until a process other than `self` publishes a running status, or a failed one (it
+/// will never run: e.g. it refused our scenario), and returns it (its state and scenario_hash
+/// are checked by the caller); nothing on timeout. A
 /// process says "running" once each of its readers has matched the writer it reads from: a
 /// writer matching a reader is not enough, since until the reader knows the writer it drops
 /// the writer's samples (the first frames of a run would be lost).

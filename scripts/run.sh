@@ -7,11 +7,15 @@
 # neither process is starved (in realtime mode on 2 cores direct_sim reaches about 24 of its
 # 50 steps/s and some runs stall short of the target; see README "Limitations").
 #
-#   scripts/run.sh [scenario.yaml] [-- extra direct_sim options]
+#   scripts/run.sh [--in-process] [--duration S] [scenario.yaml] [-- extra direct_sim options]
+#   --in-process: both loops in one process (direct_sim run --in-process), lockstep, no DDS:
+#                 the same results folder and, to the last digit, the same numbers as the
+#                 two-process lockstep run
+#   --duration S: simulated time (default the scenario's run.duration)
 #   NSIM_PREDICTION=off scripts/run.sh     (register to the measured markers)
 #   NSIM_MODE=realtime scripts/run.sh      (wall-clock pacing; NSIM_MODE=lockstep is the default,
 #                                           NSIM_LATENCY_STEPS=N, default 1)
-#   NSIM_DURATION=S scripts/run.sh         (simulated time, default the scenario's run.duration)
+#   NSIM_DURATION=S scripts/run.sh         (the same as --duration S)
 #
 # Writes results/run_<date>/ (or $NSIM_RESULTS_DIR): summary.json (merged: final error and
 # amplitude, rates, loop latency, nRMS per marker, rejected counts, all settings; the full
@@ -21,10 +25,26 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 scenario="$root/configs/scenarios/liver_breathing.yaml"
-if [ $# -gt 0 ] && [ "$1" != "--" ]; then scenario="$(realpath "$1")"; shift; fi
-[ "${1:-}" = "--" ] && shift
+in_process=0
+duration="${NSIM_DURATION:-}"
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --in-process) in_process=1; shift ;;
+    --duration)
+      [ $# -ge 2 ] || { echo "run: --duration needs a value (s)" >&2; exit 2; }
+      duration="$2"; shift 2 ;;
+    --duration=*) duration="${1#--duration=}"; shift ;;
+    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --) shift; break ;;
+    -*) echo "run: unknown option '$1' (see --help)" >&2; exit 2 ;;
+    *) scenario="$(realpath "$1")"; shift ;;
+  esac
+done
 extra_direct=("$@")
 [ -f "$scenario" ] || { echo "run: no such scenario: $scenario" >&2; exit 2; }
+if [ -n "$duration" ] && ! [[ "$duration" =~ ^[0-9]*\.?[0-9]+$ ]]; then
+  echo "run: --duration must be a positive number of seconds, got '$duration'" >&2; exit 2
+fi
 
 "$root/scripts/setup.sh"
 echo "run: building (scripts/build.sh) ..."
@@ -46,12 +66,12 @@ if [ "${NSIM_MODE:-}" = "lockstep" ]; then
   latency="${NSIM_LATENCY_STEPS:-1}"
   direct_args+=(--latency-steps "$latency")
 fi
-[ -n "${NSIM_DURATION:-}" ] && direct_args+=(--duration "$NSIM_DURATION")
-inverse_args=("${mode_args[@]}" --prediction "$prediction")
+[ -n "$duration" ] && direct_args+=(--duration "$duration")
+controller_args=(--prediction "$prediction")
 if [ -n "${latency:-}" ]; then
   # the horizon: the next frame plus the simulated latency (latency_steps x time_step)
   h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
-  inverse_args+=(--localization-delay "$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')")
+  controller_args+=(--localization-delay "$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')")
 fi
 
 pids=()
@@ -62,10 +82,24 @@ cleanup() {
 trap cleanup EXIT
 trap 'echo "run: interrupted"; exit 130' INT TERM
 
+if [ "$in_process" = 1 ]; then
+  [ "$NSIM_MODE" = lockstep ] || { echo "run: --in-process runs in lockstep only (NSIM_MODE=$NSIM_MODE)" >&2; exit 2; }
+  echo "run: closed loop in one process, scenario $scenario, prediction $prediction, lockstep"
+  echo "run: results in $out"
+  timeout -s KILL 1800 "$bin/direct_sim" run --config "$scenario" --out "$out/direct" --in-process \
+    "${direct_args[@]}" "${controller_args[@]}" "${extra_direct[@]}" > "$out/direct.log" 2>&1 &
+  dir=$!; pids+=("$dir")
+  tail -n +1 -f --pid="$dir" "$out/direct.log" &
+  tailer=$!
+  direct_code=0; wait "$dir" || direct_code=$?
+  wait "$tailer" 2>/dev/null || true
+  pids=()
+  inverse_code=$direct_code
+else
 echo "run: closed loop, scenario $scenario, prediction $prediction${NSIM_MODE:+, mode $NSIM_MODE}"
 echo "run: results in $out"
 "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --timeout 600 --start-timeout 60 \
-  "${inverse_args[@]}" "${dds[@]}" > "$out/inverse.log" 2>&1 &
+  "${mode_args[@]}" "${controller_args[@]}" "${dds[@]}" > "$out/inverse.log" 2>&1 &
 inv=$!; pids+=("$inv")
 # direct_sim bounded by timeout(1) too: a hung run cannot outlive 10 minutes
 timeout -s KILL 600 "$bin/direct_sim" run --config "$scenario" --out "$out/direct" \
@@ -86,6 +120,7 @@ wait "$inv" || inverse_code=$?
 pids=()
 echo "run: direct_sim exit $direct_code, inverse_sim exit $inverse_code (logs: direct.log, inverse.log)"
 tail -n 2 "$out/inverse.log"
+fi
 
 if [ ! -f "$out/direct/summary.json" ]; then
   echo "run: direct_sim wrote no summary, see $out/direct.log" >&2

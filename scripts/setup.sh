@@ -13,7 +13,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   gmsh
   python3-matplotlib
-  iproute2 nftables procps
+  iproute2 nftables procps jq parallel
 )
 
 missing=()

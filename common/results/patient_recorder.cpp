@@ -15,7 +15,11 @@ using nlohmann::json;
 
 json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
 
+// null figures when there is nothing to summarize (e.g. no loop latency in-process)
 json StatsMs(const std::vector<double>& ms) {
+  if (ms.empty())
+    return {{"mean", nullptr}, {"median", nullptr}, {"p90", nullptr}, {"p95", nullptr},
+            {"p99", nullptr},  {"max", nullptr},    {"count", 0}};
   const SampleSummary s = Summarize(ms);
   return {{"mean", s.mean}, {"median", s.median}, {"p90", s.p90}, {"p95", s.p95},
           {"p99", s.p99},   {"max", s.max},       {"count", s.count}};

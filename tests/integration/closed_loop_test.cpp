@@ -51,8 +51,10 @@ struct Loop {
   // A 3 s liveliness lease unless the extra options give one: a 0.5 s lease can expire on a
   // loaded 2-core machine (ctest -j2 next to a build) while both processes are alive.
   Loop(const fs::path& dir, const std::string& name, const fs::path& scenario,
-       std::vector<std::string> direct_extra, std::vector<std::string> inverse_extra)
+       std::vector<std::string> direct_extra, std::vector<std::string> inverse_extra,
+       const fs::path& inverse_scenario = {})
       : out(dir / name) {
+    const fs::path& controller_scenario = inverse_scenario.empty() ? scenario : inverse_scenario;
     fs::create_directories(out);
     const std::vector<std::string> dds = {"--dds-config", kDdsConfig,
                                           "--domain",     std::to_string(kDomain),
@@ -62,7 +64,7 @@ struct Loop {
         extra->insert(extra->end(), {"--lease", "3"});
     }
     inverse = std::make_unique<ChildProcess>(
-        Cat(Cat({kBin + "/inverse_sim", "run", "--config", scenario.string(), "--out",
+        Cat(Cat({kBin + "/inverse_sim", "run", "--config", controller_scenario.string(), "--out",
                  (out / "inverse").string(), "--timeout", "85", "--start-timeout", "30", "--quiet"},
                 inverse_extra),
             dds),
@@ -156,6 +158,25 @@ TEST(ClosedLoop, LockstepInsertionReachesTheTargetAndEqualsTheInProcessRun) {
   EXPECT_GT(std::count(dds_series.begin(), dds_series.end(), '\n'), 551);
   EXPECT_TRUE(dds_series == ReadText(in_process / "direct/timeseries.csv"))
       << "timeseries.csv differs between the DDS and the in-process run";
+}
+
+// both processes must run the same shared part of a scenario: a controller planning another
+// target is refused at the start handshake, by both sides, with a message that says so
+TEST(ClosedLoop, AControllerWithAnotherScenarioIsRefused) {
+  const fs::path dir = TempDir("closed_loop_mismatch");
+  const fs::path scenario = WriteScenario(dir, {});
+  const fs::path other = testing::WriteEditedScenario(
+      dir, "other.yaml", "liver_test_coarse.yaml",
+      {{"target: [0.03, 0.015, -0.01]", "target: [0.03, 0.015, -0.012]"}});
+  Loop loop(dir, "mismatch", scenario, {"--duration", "2"}, {"--prediction", "off"}, other);
+  EXPECT_EQ(loop.direct->Wait(60.0), 2) << loop.direct->Output();
+  EXPECT_EQ(loop.inverse->Wait(30.0), 2) << loop.inverse->Output();
+  EXPECT_NE(loop.direct->Output().find("runs another scenario"), std::string::npos)
+      << loop.direct->Output();
+  EXPECT_NE(loop.inverse->Output().find("another scenario"), std::string::npos)
+      << loop.inverse->Output();
+  EXPECT_EQ(loop.DirectSummary()["exit"], "scenario_mismatch");
+  EXPECT_EQ(loop.DirectSummary()["steps"], 0);
 }
 
 TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
