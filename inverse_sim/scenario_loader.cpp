@@ -80,7 +80,7 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   RejectKeysMovedToShared(ctl, "controller");
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
-                 "liver_entry_objective"});
+                 "liver_entry_objective", "compensate_in_flight"});
   std::string dof;
   if (ctl.Read("dof", &dof)) s.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
   const YamlReader p = ctl.Child("path");
@@ -102,6 +102,7 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   ctl.Read("max_rotation_step", &s.control.law.max_rotation_step);
   ctl.Read("max_joint_step", &s.control.law.max_joint_step);
   ctl.Read("liver_entry_objective", &s.control.liver_entry_objective);
+  ctl.Read("compensate_in_flight", &s.control.compensate_in_flight);
   ValidateAs([&] { s.path.Validate(); }, path, "controller.", "controller.");
   ValidateAs([&] { s.control.Validate(); }, path, "controller.", "controller.");
 
@@ -109,8 +110,9 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   if (!pred.IsNull()) {
     pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
                     "pca_window", "search_lead", "search_interval", "horizon_window",
-                    "localization_delay", "displacement"});
+                    "localization_delay", "displacement", "measure_latency"});
     pred.Read("displacement", &s.prediction_displacement);
+    pred.Read("measure_latency", &s.prediction_measure_latency);
     pred.Read("enabled", &s.prediction_enabled);
     std::string filter;
     if (pred.Read("filter", &filter)) s.prediction.filter = ParsePredictionFilter(filter);

@@ -42,6 +42,9 @@ struct InverseScenario {
   /// it (the thesis's Algorithm 1 scores 1 frame ahead). A window chosen for 1 frame and used
   /// 6 frames ahead gave marker nRMS of 450 % at a 100 ms latency (liver_test_coarse.yaml).
   bool prediction_search_lead_auto = true;
+  /// prediction.measure_latency: the horizon adds the loop latency measured from the frames
+  /// (ControllerLoopConfig::measure_latency) to localization_delay.
+  bool prediction_measure_latency = true;
   HorizonConfig horizon;
   /// run.mode of the direct side (read from the same file): in lockstep inverse_sim answers
   /// every frame in order, so a run does not depend on timing.
@@ -51,7 +54,14 @@ struct InverseScenario {
 
   /// The controller loop's config.
   ControllerLoopConfig LoopConfig() const {
-    return {model,      path, control, prediction_enabled, prediction, prediction_displacement,
+    return {model,
+            path,
+            control,
+            prediction_enabled,
+            prediction,
+            prediction_displacement,
+            prediction_measure_latency,
+            prediction_search_lead_auto,
             horizon};
   }
 };

@@ -91,6 +91,7 @@ void ToMessage(const SensorFrame& sample, nsim_msgs_SensorFrame& msg, ConvertScr
   msg.entry_punctured = sample.entry_punctured;
   msg.p_WP = ToVec3(sample.p_WP);
   msg.n_W = ToVec3(sample.n_W);
+  msg.applied_seq = sample.applied_seq;
 }
 
 std::string FromMessage(const nsim_msgs_SensorFrame& msg, SensorFrame& sample) {
@@ -100,6 +101,7 @@ std::string FromMessage(const nsim_msgs_SensorFrame& msg, SensorFrame& sample) {
     if (auto e = FromVec3(msg.p_WM._buffer[i], sample.p_WM[i], "p_WM"); !e.empty())
       return Str(e, " (marker ", i, ")");
   sample.has_robot = msg.has_robot;
+  sample.applied_seq = msg.applied_seq;
   if (!msg.has_robot) {
     // a marker-only stream: the robot and entry fields carry nothing
     sample.X_WE = Eigen::Isometry3d::Identity();

@@ -47,6 +47,11 @@ struct SensorFrame {
   bool entry_punctured = false;                    ///< false until the skin is punctured
   Eigen::Vector3d p_WP = Eigen::Vector3d::Zero();  ///< skin entry point in world (m)
   Eigen::Vector3d n_W = Eigen::Vector3d::UnitZ();  ///< outward skin normal at the entry (unit)
+  /// answers_seq of the target the robot executed during the step that led to this state;
+  /// kNoTarget when it held still (no command, a hold timeout, a lost controller). The
+  /// controller measures its loop latency from it (frame time minus the answered frame's).
+  uint64_t applied_seq = kNoTarget;
+  static constexpr uint64_t kNoTarget = ~uint64_t{0};
 
   MarkerFrame markers() const { return {stamp, p_WM}; }
   EntryPoint entry() const { return {stamp, entry_punctured, p_WP, n_W}; }

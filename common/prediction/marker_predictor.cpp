@@ -101,6 +101,7 @@ class LastSampleFilter final : public MarkerFilter {
 // the PCA rolling buffer and its recomputation schedule, shared by LF and Kalman
 class PcaFilter : public MarkerFilter {
  public:
+  void SetSearchLead(int samples) override { config_.search_lead = samples; }
   explicit PcaFilter(const PredictionConfig& config)
       : config_(config), buffer_(config.pca_window), t_(config.pca_window), y_(config.pca_window) {}
 
@@ -290,6 +291,12 @@ void MarkerPredictor::Predict(double horizon, std::vector<Eigen::Vector3d>* p_WM
   NSIM_CHECK(!std::isnan(last_time_), "MarkerPredictor::Predict before the first Update");
   if (static_cast<int>(p_WM->size()) != num_markers()) p_WM->resize(num_markers());
   for (int m = 0; m < num_markers(); ++m) (*p_WM)[m] = filters_[m]->Predict(horizon);
+}
+
+void MarkerPredictor::SetSearchLead(int samples) {
+  const int most = config_.optimize_window ? config_.pca_window - config_.window_max : samples;
+  config_.search_lead = std::clamp(samples, 1, std::max(1, most));
+  for (const auto& filter : filters_) filter->SetSearchLead(config_.search_lead);
 }
 
 bool MarkerPredictor::ready() const {

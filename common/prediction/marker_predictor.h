@@ -71,6 +71,9 @@ class MarkerFilter {
   virtual int window() const { return 0; }
   /// Principal axes in use, or nullptr for filters without PCA or before ready().
   virtual const PrincipalAxes* axes() const { return nullptr; }
+  /// Frames ahead the window search scores (PredictionConfig::search_lead), for a horizon
+  /// measured while running; filters without a window search ignore it.
+  virtual void SetSearchLead(int /*samples*/) {}
 };
 
 /// Makes the filter `config.filter` for one marker. Validates `config` (InputError).
@@ -93,6 +96,9 @@ class MarkerPredictor {
 
   /// True once every marker's filter predicts.
   bool ready() const;
+  /// Sets every filter's search lead to `samples`, >= 1, bounded so that the search still fits
+  /// the PCA window (pca_window - window_max); used when the horizon is measured.
+  void SetSearchLead(int samples);
   int num_markers() const { return static_cast<int>(filters_.size()); }
   const MarkerFilter& filter(int m) const { return *filters_[m]; }
   const PredictionConfig& config() const { return config_; }

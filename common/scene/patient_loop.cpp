@@ -44,6 +44,7 @@ void PatientLoop::Sample() {
   f.q = robot_->q();
   f.bevel_angle = bevel_angle_;
   f.entry_punctured = scene_->CalcEntryPoint(&f.p_WP, &f.n_W);
+  f.applied_seq = applied_seq_;
 
   PatientRecord& r = record_;
   r.t = f.stamp.sim_time;
@@ -81,6 +82,7 @@ const SensorFrame& PatientLoop::Step(const std::optional<RobotTarget>& target) {
   }
   const double start = MonotonicSeconds();
   bool holding = false;
+  applied_seq_ = SensorFrame::kNoTarget;
   if (!config_.controller) {
     const double s = std::min(config_.insertion.speed * (t + h),
                               plan_.total_travel() + config_.insertion.overshoot);
@@ -90,8 +92,10 @@ const SensorFrame& PatientLoop::Step(const std::optional<RobotTarget>& target) {
     holding = true;
   } else if (command_->mode == TargetMode::kJoint) {
     robot_->StepToJoints(command_->q, h);
+    applied_seq_ = command_->answers_seq;
   } else {
     robot_->StepToPose(command_->X_WE, h);
+    applied_seq_ = command_->answers_seq;
   }
   last_step_.scene = scene_->Step(robot_->X_WE(), bevel_angle_);
   last_step_.wall_ms = 1e3 * (MonotonicSeconds() - start);

@@ -115,6 +115,7 @@ class PatientLoop {
   std::optional<RobotTarget> command_;
   double bevel_angle_ = 0.0;
   bool controller_lost_ = false, holding_ = false, finite_ = true;
+  uint64_t applied_seq_ = SensorFrame::kNoTarget;
   int64_t steps_ = 0;
   SensorFrame frame_;
   PatientRecord record_;

@@ -6,6 +6,12 @@
 #include "common/core/error.h"
 
 namespace nsim {
+namespace {
+
+constexpr size_t kFrameTimesKept = 1024;  // frames whose time a delay can be measured against
+constexpr size_t kRecentDelays = 10;      // the horizon uses the median of the last delays
+
+}  // namespace
 
 ControllerLoop::ControllerLoop(const ControllerLoopConfig& config, TetMesh mesh)
     : config_(config), mesh_(std::move(mesh)), horizon_(config.horizon) {
@@ -43,10 +49,58 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
     return false;
   }
   score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
+  frame_times_.emplace_back(frame.stamp.seq, frame.stamp.sim_time);
+  if (frame_times_.size() > kFrameTimesKept) frame_times_.pop_front();
+  MeasureLatency(frame);
   observed_any_ = true;
   last_observed_time_ = frame.stamp.sim_time;
   ++counts_.observed;
   return true;
+}
+
+void ControllerLoop::MeasureLatency(const SensorFrame& frame) {
+  if (!frame.has_robot) return;
+  if (frame.applied_seq == SensorFrame::kNoTarget) {
+    // the robot held still: the commands it held through did not take effect
+    if (obeyed_) last_target_.reset();
+    obeyed_ = false;
+    return;
+  }
+  obeyed_ = true;
+  for (auto it = frame_times_.rbegin(); it != frame_times_.rend(); ++it) {
+    if (it->first != frame.applied_seq) continue;
+    const double delay = frame.stamp.sim_time - it->second;
+    delays_.push_back(delay);
+    recent_delays_.push_back(delay);
+    if (recent_delays_.size() > kRecentDelays) recent_delays_.pop_front();
+    return;
+  }
+}
+
+double ControllerLoop::CalcHorizon(double t) {
+  horizon_.AddLoopTime(t);
+  const double configured = horizon_.CalcHorizon(t);  // eq. 4.9-4.10, configured delay
+  if (!config_.measure_latency || recent_delays_.empty() || !std::isfinite(configured))
+    return configured;
+  // the measured delay covers the loop period and the latency; the configured delay adds
+  // what simulation time cannot see (a tracker's own localization delay)
+  const double loop = configured - config_.horizon.localization_delay;
+  const double measured = Median({recent_delays_.begin(), recent_delays_.end()});
+  const double horizon = configured + std::max(0.0, measured - loop);
+  if (config_.search_lead_auto && predictor_ && loop > 0) {
+    const int lead = std::max(1, static_cast<int>(std::lround(horizon / loop)));
+    if (lead != search_lead_) predictor_->SetSearchLead(lead);
+    search_lead_ = lead;
+  }
+  return horizon;
+}
+
+void ControllerLoop::SetCommanded(SteeringInput* input) const {
+  if (!last_target_ || !config_.control.compensate_in_flight) return;
+  if (last_target_->mode == TargetMode::kJoint && last_target_->q.size() == 7)
+    input->q_commanded = Eigen::Map<const Vector7d>(last_target_->q.data());
+  else if (last_target_->mode == TargetMode::kCartesian)
+    input->X_WE_commanded = last_target_->X_WE;
 }
 
 void ControllerLoop::Observe(const SensorFrame& frame) { Accept(frame); }
@@ -68,8 +122,8 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   ++counts_.answered;
   SteeringInput input;
   try {
-    horizon_.AddLoopTime(t);
-    r.horizon = horizon_.CalcHorizon(t);
+    r.horizon = CalcHorizon(t);
+    SetCommanded(&input);
     input.X_WE = frame.X_WE;
     if (frame.q.size() == 7) input.q = Eigen::Map<const Vector7d>(frame.q.data());
     input.entry = frame.entry();
@@ -125,6 +179,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     target.mode = TargetMode::kJoint;
     target.q.assign(out.q_target.data(), out.q_target.data() + 7);
   }
+  last_target_ = target;
   return target;
 }
 

@@ -8,6 +8,7 @@
 // The DDS pump of inverse_sim and the in-process closed loop drive the same class.
 
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -35,6 +36,13 @@ struct ControllerLoopConfig {
   /// (prediction at t + h minus the filter's own fit at t) instead of the filter's
   /// reconstruction (which keeps only the markers' first principal axis).
   bool prediction_displacement = true;
+  /// The prediction horizon (eq. 4.10) uses the loop latency measured from the frames
+  /// (SensorFrame::applied_seq: the time from a frame to the frame whose step executed its
+  /// answer), on top of horizon.localization_delay (a tracker's own delay, not visible in
+  /// simulation time); false: only the configured delay.
+  bool measure_latency = true;
+  /// prediction.search_lead follows the measured horizon (in frames).
+  bool search_lead_auto = true;
   HorizonConfig horizon;
 };
 
@@ -87,6 +95,9 @@ class ControllerLoop {
   const TimingStat& total_time() const { return total_time_; }
   /// Wall time between successive answers (s): its rate is the controller's loop rate.
   const TimingStat& loop_period() const { return loop_period_; }
+  /// Every measured loop delay: the frame's time minus the time of the frame whose answer the
+  /// robot executed in the step before it (s); (d + 1) time steps in lockstep with latency d.
+  const std::vector<double>& measured_delays() const { return delays_; }
   /// The current insertion phase (0 outside, 1 skin, 2 liver), for status messages.
   int phase() const { return phase_; }
   const ControllerLoopConfig& config() const { return config_; }
@@ -97,6 +108,12 @@ class ControllerLoop {
  private:
   bool Accept(const SensorFrame& frame);  // validity and order checks; counts a rejection
   void Reject(const std::string& why);
+  // the loop delay from the frame's applied_seq, and whether the robot obeys our commands
+  void MeasureLatency(const SensorFrame& frame);
+  // the horizon at frame time t: eq. 4.9-4.10 with the measured delay
+  double CalcHorizon(double t);
+  // the commands in flight for the law (none when the robot stopped obeying)
+  void SetCommanded(SteeringInput* input) const;
 
   ControllerLoopConfig config_;
   TetMesh mesh_;
@@ -112,6 +129,12 @@ class ControllerLoop {
   bool observed_any_ = false;
   int phase_ = 0;
   std::vector<Eigen::Vector3d> fit_now_;
+  std::deque<std::pair<uint64_t, double>> frame_times_;  // (seq, t) of recent frames
+  std::deque<double> recent_delays_;                     // the last measured delays (s)
+  std::vector<double> delays_;
+  std::optional<RobotTarget> last_target_;  // the last command sent
+  bool obeyed_ = false;                     // the robot executed one of our commands
+  int search_lead_ = 0;
 };
 
 }  // namespace nsim

@@ -92,6 +92,10 @@ struct SteeringControlConfig {
   /// Include e_e (eq. 3.5) in phase 3 even when the skin entry is unknown, using the liver
   /// entry point (scenes without a skin).
   bool liver_entry_objective = true;
+  /// Account for the commands in flight (SteeringInput::X_WE_commanded / q_commanded): the
+  /// loop's nominal poles are then 1 - k whatever the latency (README "Control under
+  /// latency"); false: eq. 3.9 / A.3 from the measured pose, whose poles move with the latency.
+  bool compensate_in_flight = true;
   /// The iiwa (base pose, limits) for kJoint7.
   Iiwa14Config iiwa;
 

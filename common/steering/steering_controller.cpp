@@ -140,14 +140,30 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
 
   Eigen::VectorXd k;
   AssembleGainVector(out.phase, control_.gains, &k);
+  // the commands in flight: the error they will leave, and the base the new step adds to
+  const bool in_flight = control_.compensate_in_flight &&
+                         (control_.dof == SteeringDof::kCartesian6 ? input.X_WE_commanded.has_value()
+                                                                  : input.q_commanded.has_value());
+  out.e_expected = out.e;
   if (control_.dof == SteeringDof::kCartesian6) {
-    const CartesianControlOutput law = CalcCartesianTarget(X_WF, out.J, out.e, k, control_.law);
+    Eigen::Isometry3d base = X_WF;
+    if (in_flight && IsFinitePose(*input.X_WE_commanded)) {
+      base = *input.X_WE_commanded;
+      out.e_expected += out.J * CalcPoseDifference(base, X_WF, control_.law.frame);
+    }
+    const CartesianControlOutput law =
+        CalcCartesianTarget(base, out.J, out.e_expected, k, control_.law);
     out.valid = law.valid && status.all_finite;
     out.X_WE_target = out.valid ? law.X_WE_target : X_WF;
     out.step_limited = law.step_limited;
     out.q_target = input.q;
   } else {
-    const JointControlOutput law = CalcJointTarget(input.q, out.J, out.e, k, control_.law);
+    Vector7d base = input.q;
+    if (in_flight && input.q_commanded->allFinite()) {
+      base = *input.q_commanded;
+      out.e_expected += out.J * (base - input.q);
+    }
+    const JointControlOutput law = CalcJointTarget(base, out.J, out.e_expected, k, control_.law);
     out.valid = law.valid && status.all_finite;
     out.q_target = out.valid ? iiwa_.ClampToLimits(law.q_target) : input.q;
     out.step_limited = law.step_limited;

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/control/objectives.h"
@@ -35,6 +36,14 @@ struct SteeringInput {
   Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< measured flange pose
   Vector7d q = Vector7d::Zero();  ///< measured joints (rad), used with SteeringDof::kJoint7
   EntryPoint entry;               ///< the localized skin entry point (punctured = false: none)
+  /// The controller's last command, which the robot may not have carried out yet: the targets
+  /// in flight over the loop's latency. When given (and control.compensate_in_flight), the step
+  /// is computed for the objectives expected once that command has taken effect,
+  /// e + J (commanded - measured), and added to the command instead of to the measured pose
+  /// (a Smith-predictor form of eq. 3.9 / A.3, README "Control under latency"). X_WE_commanded
+  /// for kCartesian6, q_commanded for kJoint7.
+  std::optional<Eigen::Isometry3d> X_WE_commanded;
+  std::optional<Vector7d> q_commanded;
 };
 
 /// Wall-clock cost of one control step (s).
@@ -52,6 +61,8 @@ struct SteeringOutput {
   int path_index = 0;        ///< current path target
   bool reached_end = false;  ///< the last path target is the current one
   Eigen::VectorXd e;         ///< objectives of the phase (eq. 3.3-3.5 stacked)
+  /// the objectives expected once the commands in flight have taken effect (= e without them)
+  Eigen::VectorXd e_expected;
   Eigen::MatrixXd J;         ///< rows x 6 or rows x 7
   Eigen::Isometry3d X_WE_target = Eigen::Isometry3d::Identity();  ///< eq. 3.9 (kCartesian6)
   Vector7d q_target = Vector7d::Zero();                           ///< eq. A.3 (kJoint7)
