@@ -1,221 +1,21 @@
 #include "direct_sim/scenario_loader.h"
 
-#include <algorithm>
 #include <cmath>
 
 #include "common/core/error.h"
-#include "common/mesh/gmsh_reader.h"
 #include "common/scenario/shared_scenario.h"
+#include "direct_sim/scenario_sections.h"
 
 namespace nsim {
 namespace {
 
-const std::vector<std::string> kOwnSections = {"random_seed", "shared",    "patient", "breathing",
-                                               "needle",      "robot",     "insertion", "safety",
-                                               "run",         "view",      "dds"};
-
-std::string Join(const std::string& dir, const std::string& path) {
-  if (path.empty() || path[0] == '/' || dir.empty()) return path;
-  return dir + "/" + path;
-}
+const std::vector<std::string> kOwnSections = {"random_seed", "shared", "patient",   "breathing",
+                                               "needle",      "robot",  "insertion", "safety",
+                                               "run",         "view",   "dds"};
 
 std::string DirName(const std::string& path) {
   const size_t slash = path.find_last_of('/');
   return slash == std::string::npos ? "." : path.substr(0, slash);
-}
-
-OrientedBox ReadBox(const YamlReader& node) {
-  node.CheckKeys({"center", "half_size", "rpy"});
-  OrientedBox box;
-  if (!node.Has("center")) node.Fail("center", "missing");
-  if (!node.Has("half_size")) node.Fail("half_size", "missing");
-  node.Read("center", &box.center);
-  node.Read("half_size", &box.half_size);
-  Eigen::Vector3d rpy = Eigen::Vector3d::Zero();
-  node.Read("rpy", &rpy);
-  box.R_WB = (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
-              Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
-              Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
-                 .toRotationMatrix();
-  return box;
-}
-
-std::vector<OrientedBox> ReadBoxes(const YamlReader& parent, const std::string& key) {
-  std::vector<OrientedBox> boxes;
-  if (!parent.Has(key)) return boxes;
-  const YamlReader list = parent.Child(key);
-  if (!list.IsSequence()) list.Fail("expected a list of boxes {center, half_size, rpy}");
-  for (size_t i = 0; i < list.size(); ++i) boxes.push_back(ReadBox(list.Element(i)));
-  return boxes;
-}
-
-// material, damping and solver keys of a tissue
-const std::vector<std::string> kFemKeys = {"mesh",
-                                           "young_modulus",
-                                           "poisson_ratio",
-                                           "density",
-                                           "rayleigh_mass",
-                                           "rayleigh_stiffness",
-                                           "linear_solver",
-                                           "cg_relative_tolerance",
-                                           "cg_max_iterations",
-                                           "refactor_iteration_threshold",
-                                           "background_refactor"};
-
-void ReadFem(const YamlReader& node, FemConfig* fem) {
-  node.Read("young_modulus", &fem->young_modulus);
-  node.Read("poisson_ratio", &fem->poisson_ratio);
-  node.Read("density", &fem->density);
-  node.Read("rayleigh_mass", &fem->rayleigh_mass);
-  node.Read("rayleigh_stiffness", &fem->rayleigh_stiffness);
-  if (std::string solver; node.Read("linear_solver", &solver))
-    fem->linear_solver = ParseFemLinearSolver(solver, node.Where("linear_solver"));
-  node.Read("cg_relative_tolerance", &fem->cg_relative_tolerance);
-  node.Read("cg_max_iterations", &fem->cg_max_iterations);
-  node.Read("refactor_iteration_threshold", &fem->refactor_iteration_threshold);
-  node.Read("background_refactor", &fem->background_refactor);
-}
-
-TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::string* path) {
-  *path = Join(base_dir, node.Child("mesh").AsString());
-  try {
-    return ReadGmshMesh(*path);
-  } catch (const InputError& e) {
-    throw InputError(Str(node.Where("mesh"), ": ", e.what()));
-  }
-}
-
-void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScenario* s) {
-  RejectKeysMovedToShared(node, "patient");
-  node.CheckKeys({"time_step", "gravity", "constraint_compliance", "liver", "skin", "ribs",
-                  "rib_contact_margin", "diaphragm", "anchors"});
-  PatientSceneConfig& c = s->scene;
-  node.Read("time_step", &c.time_step);
-  node.Read("gravity", &c.gravity);
-  const int compliance = node.ReadChoice("constraint_compliance", {"rest", "current"});
-  if (compliance >= 0) c.liver_rest_compliance = compliance == 0;
-  const YamlReader liver = node.Child("liver");
-  liver.CheckKeys(kFemKeys);
-  ReadFem(liver, &c.liver);
-  const YamlReader skin = node.Child("skin");
-  std::vector<std::string> skin_keys = kFemKeys;
-  skin_keys.push_back("pose");
-  skin_keys.push_back("attach_distance");
-  skin.CheckKeys(skin_keys);
-  ReadFem(skin, &c.skin.fem);
-  skin.Read("pose", &c.skin.X_WS);
-  skin.Read("attach_distance", &c.skin.attach_distance);
-  node.Read("rib_contact_margin", &c.rib_contact_margin);
-  c.ribs = ReadBoxes(node, "ribs");
-  c.diaphragm = ReadBox(node.Child("diaphragm"));
-  c.anchors = ReadBoxes(node, "anchors");
-  // meshes last: the cheap key checks come first
-  s->liver_mesh = ReadMesh(liver, base_dir, &s->liver_mesh_path);
-  s->skin_mesh = ReadMesh(skin, base_dir, &s->skin_mesh_path);
-}
-
-void ReadBreathing(const YamlReader& node, uint64_t seed, BreathingConfig* b) {
-  node.CheckKeys({"period", "period_cv", "amplitude_cv", "si_amplitude", "ap_amplitude",
-                  "lr_amplitude", "shape_exponent", "start_phase", "axis_si", "axis_ap", "axis_lr",
-                  "drift_velocity", "horizon", "random_seed"});
-  b->random_seed = seed;
-  node.Read("period", &b->period);
-  node.Read("period_cv", &b->period_cv);
-  node.Read("amplitude_cv", &b->amplitude_cv);
-  node.Read("si_amplitude", &b->si_amplitude);
-  node.Read("ap_amplitude", &b->ap_amplitude);
-  node.Read("lr_amplitude", &b->lr_amplitude);
-  node.Read("shape_exponent", &b->shape_exponent);
-  node.Read("start_phase", &b->start_phase);
-  node.Read("axis_si", &b->axis_si);
-  node.Read("axis_ap", &b->axis_ap);
-  node.Read("axis_lr", &b->axis_lr);
-  node.Read("drift_velocity", &b->drift_velocity);
-  node.Read("horizon", &b->horizon);
-  node.Read("random_seed", &b->random_seed);
-}
-
-void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
-  node.CheckKeys({"puncture_force", "friction_coefficient", "friction_force_per_length",
-                  "point_spacing", "tip_constraint", "contact_margin"});
-  node.Read("puncture_force", &t->puncture_force);
-  node.Read("friction_coefficient", &t->friction_coefficient);
-  node.Read("friction_force_per_length", &t->friction_force_per_length);
-  node.Read("point_spacing", &t->point_spacing);
-  node.Read("tip_constraint", &t->tip_constraint);
-  node.Read("contact_margin", &t->contact_margin);
-}
-
-void ReadNeedle(const YamlReader& node, SceneNeedleConfig* n) {
-  RejectKeysMovedToShared(node, "needle");
-  node.CheckKeys({"type", "young_modulus", "poisson_ratio", "density", "elements",
-                  "rayleigh_mass", "rayleigh_stiffness", "skin", "liver", "bevel"});
-  const int type = node.ReadChoice("type", {"rigid", "flexible"});
-  if (type >= 0) n->kind = type == 0 ? NeedleKind::kRigid : NeedleKind::kFlexible;
-  NeedleConfig& g = n->kind == NeedleKind::kRigid ? n->rigid : n->flexible.needle;
-  node.Read("young_modulus", &g.young_modulus);
-  node.Read("poisson_ratio", &g.poisson_ratio);
-  node.Read("density", &g.density);
-  node.Read("elements", &n->flexible.num_elements);
-  node.Read("rayleigh_mass", &n->flexible.rayleigh_mass);
-  node.Read("rayleigh_stiffness", &n->flexible.rayleigh_stiffness);
-  if (node.Has("skin")) ReadTissueCoupling(node.Child("skin"), &n->coupling.tissues[kSkinTissue]);
-  if (node.Has("liver"))
-    ReadTissueCoupling(node.Child("liver"), &n->coupling.tissues[kLiverTissue]);
-  if (node.Has("bevel")) {
-    const YamlReader bevel = node.Child("bevel");
-    bevel.CheckKeys(
-        {"enabled", "diameter", "bevel_angle", "beta_over_alpha", "tissue_stiffness", "mode"});
-    BevelConfig& b = n->coupling.bevel;
-    bevel.Read("enabled", &b.enabled);
-    bevel.Read("diameter", &b.diameter);
-    bevel.Read("bevel_angle", &b.bevel_angle);
-    bevel.Read("beta_over_alpha", &b.beta_over_alpha);
-    bevel.Read("tissue_stiffness", &b.tissue_stiffness);
-    const int mode = bevel.ReadChoice("mode", {"torque", "force"});
-    if (mode >= 0) b.mode = mode == 0 ? BevelLoadMode::kTorque : BevelLoadMode::kForce;
-  }
-}
-
-void ReadRobot(const YamlReader& node, RobotDriverConfig* r) {
-  RejectKeysMovedToShared(node, "robot");
-  node.CheckKeys({"type", "max_linear_speed", "max_angular_speed", "max_linear_acceleration",
-                  "max_angular_acceleration", "workspace_min", "workspace_max"});
-  const int type = node.ReadChoice("type", {"cartesian", "iiwa"});
-  if (type >= 0) r->kind = type == 0 ? RobotKind::kCartesian : RobotKind::kIiwa;
-  node.Read("max_linear_speed", &r->cartesian.max_linear_speed);
-  node.Read("max_angular_speed", &r->cartesian.max_angular_speed);
-  node.Read("max_linear_acceleration", &r->cartesian.max_linear_acceleration);
-  node.Read("max_angular_acceleration", &r->cartesian.max_angular_acceleration);
-  node.Read("workspace_min", &r->cartesian.workspace_min_W);
-  node.Read("workspace_max", &r->cartesian.workspace_max_W);
-}
-
-void ReadRun(const YamlReader& node, RunConfig* run) {
-  node.CheckKeys({"duration", "mode", "latency_steps", "lockstep_timeout", "start_timeout",
-                  "vtk_every", "video", "view_every", "status_period"});
-  node.Read("duration", &run->duration);
-  const int mode = node.ReadChoice("mode", {"realtime", "lockstep"});
-  if (mode >= 0) run->mode = mode == 0 ? RunMode::kRealtime : RunMode::kLockstep;
-  node.Read("latency_steps", &run->latency_steps);
-  node.Read("lockstep_timeout", &run->lockstep_timeout);
-  node.Read("start_timeout", &run->start_timeout);
-  node.Read("vtk_every", &run->vtk_every);
-  node.Read("video", &run->video);
-  node.Read("view_every", &run->view_every);
-  node.Read("status_period", &run->status_period);
-}
-
-void ReadView(const YamlReader& node, ViewerConfig* v) {
-  node.CheckKeys({"width", "height", "eye", "look_at", "up", "fov_deg", "ortho_height", "fps"});
-  node.Read("width", &v->width);
-  node.Read("height", &v->height);
-  node.Read("eye", &v->eye);
-  node.Read("look_at", &v->look_at);
-  node.Read("up", &v->up);
-  node.Read("fov_deg", &v->fov_deg);
-  node.Read("ortho_height", &v->ortho_height);
-  node.Read("fps", &v->fps);
 }
 
 // the shared facts into the direct configs: one source for both processes
@@ -232,6 +32,33 @@ void ApplyShared(const SharedScenario& shared, DirectScenario* s) {
   }
   s->insertion.approach_distance = shared.approach_distance;
   s->robot.iiwa.X_WB = shared.X_WB;
+}
+
+// the gate enforces the robot's limits
+void CopyRobotLimits(const RobotDriverConfig& robot, TargetGateConfig* safety) {
+  safety->max_linear_speed = robot.cartesian.max_linear_speed;
+  safety->max_angular_speed = robot.cartesian.max_angular_speed;
+  safety->workspace_min_W = robot.cartesian.workspace_min_W;
+  safety->workspace_max_W = robot.cartesian.workspace_max_W;
+  if (robot.kind == RobotKind::kIiwa) {
+    const Iiwa14Config& iiwa = robot.iiwa;
+    safety->joint_lower.assign(iiwa.position_lower.data(), iiwa.position_lower.data() + 7);
+    safety->joint_upper.assign(iiwa.position_upper.data(), iiwa.position_upper.data() + 7);
+    safety->joint_velocity.assign(iiwa.velocity_limit.data(), iiwa.velocity_limit.data() + 7);
+  }
+}
+
+// every value checked, with the file named
+void ValidateScenario(const DirectScenario& s) {
+  const std::string& src = s.source;
+  ValidateAs([&] { s.scene.Validate(); }, src, "", "");
+  ValidateAs([&] { s.robot.Validate(); }, src, "", "");
+  ValidateAs([&] { s.insertion.Validate(); }, src, "", "");
+  ValidateAs([&] { s.safety.Validate(); }, src, "", "");
+  ValidateAs([&] { s.run.Validate(); }, src, "", "");
+  ValidateAs([&] { s.view.Validate(); }, src, "", "");
+  if (s.dds_domain < 0 || s.dds_domain > 232)
+    throw InputError(Str(src, ": dds.domain must be in [0, 232], got ", s.dds_domain));
 }
 
 }  // namespace
@@ -267,60 +94,20 @@ DirectScenario ParseDirectScenario(const YamlReader& root, const std::string& ba
   s.shared = ReadSharedScenario(root);
   s.scenario_hash = ScenarioHash(s.shared);
   root.Read("random_seed", &s.random_seed);
-  ReadPatient(root.Child("patient"), base_dir, &s);
-  ReadBreathing(root.OptionalChild("breathing"), s.random_seed, &s.scene.breathing);
-  if (root.Has("needle")) ReadNeedle(root.Child("needle"), &s.scene.needle);
-  if (root.Has("robot")) ReadRobot(root.Child("robot"), &s.robot);
-  if (root.Has("insertion")) {
-    const YamlReader ins = root.Child("insertion");
-    RejectKeysMovedToShared(ins, "insertion");
-    ins.CheckKeys({"speed", "overshoot"});
-    ins.Read("speed", &s.insertion.speed);
-    ins.Read("overshoot", &s.insertion.overshoot);
-  }
-  if (root.Has("safety")) {
-    const YamlReader safety = root.Child("safety");
-    safety.CheckKeys({"max_age", "hold_timeout", "speed_horizon", "over_limit"});
-    safety.Read("max_age", &s.safety.max_age);
-    safety.Read("hold_timeout", &s.safety.hold_timeout);
-    safety.Read("speed_horizon", &s.safety.speed_horizon);
-    const int action = safety.ReadChoice("over_limit", {"clamp", "reject"});
-    if (action >= 0)
-      s.safety.over_limit = action == 0 ? OverLimitAction::kClamp : OverLimitAction::kReject;
-  }
-  if (root.Has("run")) ReadRun(root.Child("run"), &s.run);
-  if (root.Has("view")) ReadView(root.Child("view"), &s.view);
-  if (root.Has("dds")) {
-    const YamlReader dds = root.Child("dds");
-    dds.CheckKeys({"domain", "partition"});
-    dds.Read("domain", &s.dds_domain);
-    dds.Read("partition", &s.dds_partition);
-  }
+  direct_sections::ReadPatient(root.Child("patient"), base_dir, &s);
+  direct_sections::ReadBreathing(root.OptionalChild("breathing"), s.random_seed,
+                                 &s.scene.breathing);
+  if (root.Has("needle")) direct_sections::ReadNeedle(root.Child("needle"), &s.scene.needle);
+  if (root.Has("robot")) direct_sections::ReadRobot(root.Child("robot"), &s.robot);
+  if (root.Has("insertion")) direct_sections::ReadInsertion(root.Child("insertion"), &s.insertion);
+  if (root.Has("safety")) direct_sections::ReadSafety(root.Child("safety"), &s.safety);
+  if (root.Has("run")) direct_sections::ReadRun(root.Child("run"), &s.run);
+  if (root.Has("view")) direct_sections::ReadView(root.Child("view"), &s.view);
+  if (root.Has("dds")) direct_sections::ReadDds(root.Child("dds"), &s.dds_domain, &s.dds_partition);
 
   ApplyShared(s.shared, &s);
-
-  // the gate enforces the robot's limits
-  s.safety.max_linear_speed = s.robot.cartesian.max_linear_speed;
-  s.safety.max_angular_speed = s.robot.cartesian.max_angular_speed;
-  s.safety.workspace_min_W = s.robot.cartesian.workspace_min_W;
-  s.safety.workspace_max_W = s.robot.cartesian.workspace_max_W;
-  if (s.robot.kind == RobotKind::kIiwa) {
-    const Iiwa14Config& iiwa = s.robot.iiwa;
-    s.safety.joint_lower.assign(iiwa.position_lower.data(), iiwa.position_lower.data() + 7);
-    s.safety.joint_upper.assign(iiwa.position_upper.data(), iiwa.position_upper.data() + 7);
-    s.safety.joint_velocity.assign(iiwa.velocity_limit.data(), iiwa.velocity_limit.data() + 7);
-  }
-
-  // every value checked, with the file named
-  const std::string& src = s.source;
-  ValidateAs([&] { s.scene.Validate(); }, src, "", "");
-  ValidateAs([&] { s.robot.Validate(); }, src, "", "");
-  ValidateAs([&] { s.insertion.Validate(); }, src, "", "");
-  ValidateAs([&] { s.safety.Validate(); }, src, "", "");
-  ValidateAs([&] { s.run.Validate(); }, src, "", "");
-  ValidateAs([&] { s.view.Validate(); }, src, "", "");
-  if (s.dds_domain < 0 || s.dds_domain > 232)
-    throw InputError(Str(src, ": dds.domain must be in [0, 232], got ", s.dds_domain));
+  CopyRobotLimits(s.robot, &s.safety);
+  ValidateScenario(s);
   return s;
 }
 

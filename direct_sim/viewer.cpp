@@ -56,6 +56,121 @@ void AddBoxTriangles(const OrientedBox& box, const cv::Scalar& color, std::vecto
     }
 }
 
+// the surfaces: liver, skin (two-sided: a thin sheet), ribs
+std::vector<Triangle> CollectTriangles(const PatientScene& scene) {
+  const PatientSceneModel& model = scene.model();
+  const PatientSceneState& state = scene.state();
+  std::vector<Triangle> triangles;
+  const TetMesh& liver = model.liver().get_mesh();
+  for (const Eigen::Vector3i& t : liver.surface)
+    triangles.push_back(
+        {{state.liver.x.col(t[0]), state.liver.x.col(t[1]), state.liver.x.col(t[2])},
+         kLiverColor,
+         true});
+  const TetMesh& skin = model.skin().get_mesh();
+  for (const Eigen::Vector3i& t : skin.surface)
+    triangles.push_back({{state.skin.x.col(t[0]), state.skin.x.col(t[1]), state.skin.x.col(t[2])},
+                         kSkinColor,
+                         false});
+  for (const OrientedBox& rib : model.config().ribs) AddBoxTriangles(rib, kRibColor, &triangles);
+  return triangles;
+}
+
+// a triangle in the image: its pixels, mean depth and shaded colour
+struct Projected {
+  cv::Point points[3];
+  double depth;
+  cv::Scalar color;
+};
+
+// the triangles facing the camera and in front of it, projected and flat-shaded; `forward_W` is
+// the view direction
+std::vector<Projected> ProjectVisible(const std::vector<Triangle>& triangles,
+                                      const SceneRenderer& renderer,
+                                      const Eigen::Vector3d& forward_W) {
+  const ViewerConfig& config = renderer.config();
+  std::vector<Projected> visible;
+  visible.reserve(triangles.size());
+  const Eigen::Vector3d light = -forward_W + 0.5 * config.up.normalized();
+  const Eigen::Vector3d light_dir = light.normalized();
+  for (const Triangle& t : triangles) {
+    const Eigen::Vector3d n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+    if (!(n.norm() > 0)) continue;
+    const Eigen::Vector3d centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
+    const Eigen::Vector3d view =
+        config.fov_deg > 0 ? Eigen::Vector3d(centroid - config.eye) : forward_W;
+    if (t.cull && n.dot(view) > 0) continue;
+    Projected p;
+    bool in_front = true;
+    double depth_sum = 0;
+    for (int k = 0; k < 3; ++k) {
+      double depth = 0;
+      const Eigen::Vector2d px = renderer.Project(t.p[k], &depth);
+      in_front = in_front && (config.fov_deg == 0 || depth > 1e-3);
+      p.points[k] =
+          cv::Point(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
+      depth_sum += depth;
+    }
+    if (!in_front) continue;
+    p.depth = depth_sum / 3.0;
+    const double shade = 0.35 + 0.65 * std::abs(n.normalized().dot(light_dir));
+    p.color = t.color * shade;
+    visible.push_back(p);
+  }
+  return visible;
+}
+
+// painter's algorithm: far to near, each filled over the farther ones
+void FillFarToNear(std::vector<Projected> triangles, cv::Mat* image) {
+  std::sort(triangles.begin(), triangles.end(),
+            [](const Projected& a, const Projected& b) { return a.depth > b.depth; });
+  for (const Projected& p : triangles)
+    cv::fillConvexPoly(*image, p.points, 3, p.color, cv::LINE_AA);
+}
+
+void DrawLine(const SceneRenderer& renderer, const Eigen::Vector3d& a_W, const Eigen::Vector3d& b_W,
+              const cv::Scalar& color, int thickness, int line_type, cv::Mat* image) {
+  const Eigen::Vector2d a = renderer.Project(a_W), b = renderer.Project(b_W);
+  cv::line(*image, cv::Point2d(a.x(), a.y()), cv::Point2d(b.x(), b.y()), color, thickness,
+           line_type);
+}
+
+// the twelve edges of a box
+void DrawBoxOutline(const SceneRenderer& renderer, const OrientedBox& box, const cv::Scalar& color,
+                    cv::Mat* image) {
+  auto corner = [&](int c) {
+    const Eigen::Vector3d s((c & 1) ? 1 : -1, (c & 2) ? 1 : -1, (c & 4) ? 1 : -1);
+    return Eigen::Vector3d(box.center + box.R_WB * s.cwiseProduct(box.half_size));
+  };
+  for (int i = 0; i < 8; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const int j = i ^ (1 << k);
+      if (j < i) continue;
+      DrawLine(renderer, corner(i), corner(j), color, 1, cv::LINE_AA, image);
+    }
+}
+
+// drawn over the surfaces, always visible: needle, markers, target, caption
+void DrawOverlays(const SceneRenderer& renderer, const PatientScene& scene,
+                  const std::string& caption, cv::Mat* image) {
+  const Eigen::Matrix3Xd needle = scene.CalcNeedlePolyline();
+  for (int k = 0; k + 1 < needle.cols(); ++k)
+    DrawLine(renderer, needle.col(k), needle.col(k + 1), NeedleColor(), 3, cv::LINE_8, image);
+  std::vector<Eigen::Vector3d> markers;
+  scene.CalcMarkerPositions(&markers);
+  for (const Eigen::Vector3d& m : markers) {
+    const Eigen::Vector2d px = renderer.Project(m);
+    cv::circle(*image, cv::Point2d(px.x(), px.y()), 5, kMarkerColor, cv::FILLED, cv::LINE_AA);
+  }
+  const Eigen::Vector2d target = renderer.Project(scene.CalcTargetPosition());
+  const cv::Point2d tc(target.x(), target.y());
+  cv::drawMarker(*image, tc, kTargetColor, cv::MARKER_TILTED_CROSS, 14, 2);
+  cv::circle(*image, tc, 8, kTargetColor, 1, cv::LINE_AA);
+  if (!caption.empty())
+    cv::putText(*image, caption, cv::Point(10, 24), cv::FONT_HERSHEY_SIMPLEX, 0.6,
+                cv::Scalar(240, 240, 240), 1, cv::LINE_AA);
+}
+
 }  // namespace
 
 void ViewerConfig::Validate() const {
@@ -98,96 +213,9 @@ Eigen::Vector2d SceneRenderer::Project(const Eigen::Vector3d& p_W, double* depth
 
 cv::Mat SceneRenderer::Render(const PatientScene& scene, const std::string& caption) const {
   cv::Mat image(config_.height, config_.width, CV_8UC3, kBackground);
-  const PatientSceneModel& model = scene.model();
-  const PatientSceneState& state = scene.state();
-
-  // surfaces: liver, skin (two-sided: a thin sheet), ribs
-  std::vector<Triangle> triangles;
-  const TetMesh& liver = model.liver().get_mesh();
-  for (const Eigen::Vector3i& t : liver.surface)
-    triangles.push_back(
-        {{state.liver.x.col(t[0]), state.liver.x.col(t[1]), state.liver.x.col(t[2])},
-         kLiverColor,
-         true});
-  const TetMesh& skin = model.skin().get_mesh();
-  for (const Eigen::Vector3i& t : skin.surface)
-    triangles.push_back({{state.skin.x.col(t[0]), state.skin.x.col(t[1]), state.skin.x.col(t[2])},
-                         kSkinColor,
-                         false});
-  for (const OrientedBox& rib : model.config().ribs) AddBoxTriangles(rib, kRibColor, &triangles);
-
-  // painter's algorithm: project, shade, sort far to near, fill
-  struct Projected {
-    cv::Point points[3];
-    double depth;
-    cv::Scalar color;
-  };
-  std::vector<Projected> visible;
-  visible.reserve(triangles.size());
-  const Eigen::Vector3d light = -R_CW_.row(2).transpose() + 0.5 * config_.up.normalized();
-  const Eigen::Vector3d light_dir = light.normalized();
-  for (const Triangle& t : triangles) {
-    const Eigen::Vector3d n = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
-    if (!(n.norm() > 0)) continue;
-    const Eigen::Vector3d centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
-    const Eigen::Vector3d view = config_.fov_deg > 0 ? Eigen::Vector3d(centroid - config_.eye)
-                                                     : Eigen::Vector3d(R_CW_.row(2).transpose());
-    if (t.cull && n.dot(view) > 0) continue;
-    Projected p;
-    bool in_front = true;
-    double depth_sum = 0;
-    for (int k = 0; k < 3; ++k) {
-      double depth = 0;
-      const Eigen::Vector2d px = Project(t.p[k], &depth);
-      in_front = in_front && (config_.fov_deg == 0 || depth > 1e-3);
-      p.points[k] =
-          cv::Point(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
-      depth_sum += depth;
-    }
-    if (!in_front) continue;
-    p.depth = depth_sum / 3.0;
-    const double shade = 0.35 + 0.65 * std::abs(n.normalized().dot(light_dir));
-    p.color = t.color * shade;
-    visible.push_back(p);
-  }
-  std::sort(visible.begin(), visible.end(),
-            [](const Projected& a, const Projected& b) { return a.depth > b.depth; });
-  for (const Projected& p : visible) cv::fillConvexPoly(image, p.points, 3, p.color, cv::LINE_AA);
-
-  // diaphragm box outline
-  const OrientedBox& box = model.config().diaphragm;
-  for (int i = 0; i < 8; ++i)
-    for (int k = 0; k < 3; ++k) {
-      const int j = i ^ (1 << k);
-      if (j < i) continue;
-      auto corner = [&](int c) {
-        const Eigen::Vector3d s((c & 1) ? 1 : -1, (c & 2) ? 1 : -1, (c & 4) ? 1 : -1);
-        return Eigen::Vector3d(box.center + box.R_WB * s.cwiseProduct(box.half_size));
-      };
-      const Eigen::Vector2d a = Project(corner(i)), b = Project(corner(j));
-      cv::line(image, cv::Point2d(a.x(), a.y()), cv::Point2d(b.x(), b.y()), kDiaphragmColor, 1,
-               cv::LINE_AA);
-    }
-
-  // overlays, always visible: needle, markers, target
-  const Eigen::Matrix3Xd needle = scene.CalcNeedlePolyline();
-  for (int k = 0; k + 1 < needle.cols(); ++k) {
-    const Eigen::Vector2d a = Project(needle.col(k)), b = Project(needle.col(k + 1));
-    cv::line(image, cv::Point2d(a.x(), a.y()), cv::Point2d(b.x(), b.y()), NeedleColor(), 3);
-  }
-  std::vector<Eigen::Vector3d> markers;
-  scene.CalcMarkerPositions(&markers);
-  for (const Eigen::Vector3d& m : markers) {
-    const Eigen::Vector2d px = Project(m);
-    cv::circle(image, cv::Point2d(px.x(), px.y()), 5, kMarkerColor, cv::FILLED, cv::LINE_AA);
-  }
-  const Eigen::Vector2d target = Project(scene.CalcTargetPosition());
-  const cv::Point2d tc(target.x(), target.y());
-  cv::drawMarker(image, tc, kTargetColor, cv::MARKER_TILTED_CROSS, 14, 2);
-  cv::circle(image, tc, 8, kTargetColor, 1, cv::LINE_AA);
-  if (!caption.empty())
-    cv::putText(image, caption, cv::Point(10, 24), cv::FONT_HERSHEY_SIMPLEX, 0.6,
-                cv::Scalar(240, 240, 240), 1, cv::LINE_AA);
+  FillFarToNear(ProjectVisible(CollectTriangles(scene), *this, R_CW_.row(2).transpose()), &image);
+  DrawBoxOutline(*this, scene.model().config().diaphragm, kDiaphragmColor, &image);
+  DrawOverlays(*this, scene, caption, &image);
   return image;
 }
 

@@ -49,6 +49,102 @@ void ApplyShared(const SharedScenario& shared, InverseScenario* s) {
   s->control.iiwa.X_WB = shared.X_WB;
 }
 
+// inverse: the liver model; the mesh path relative to the scenario file
+void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario* s) {
+  RejectKeysMovedToShared(inv, "inverse");
+  inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
+                 "tip_constraint"});
+  std::filesystem::path mesh = inv.Child("mesh").AsString();
+  if (mesh.is_relative()) mesh = std::filesystem::path(path).parent_path() / mesh;
+  s->mesh_path = mesh.lexically_normal().string();
+  if (inv.Has("liver")) ReadFem(inv.Child("liver"), &s->model.liver);
+  inv.Read("young_modulus_factor", &s->model.young_modulus_factor);
+  inv.Read("puncture_force", &s->model.puncture_force);
+  inv.Read("point_spacing", &s->model.point_spacing);
+  inv.Read("tip_constraint", &s->model.tip_constraint);
+  ValidateAs([&] { s->model.Validate(); }, path, "inverse.", "inverse.");
+}
+
+// controller: the path, the Jacobian steps, the gains and the law
+void ReadController(const YamlReader& ctl, const std::string& path, InverseScenario* s) {
+  RejectKeysMovedToShared(ctl, "controller");
+  ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
+                 "max_translation_step", "max_rotation_step", "max_joint_step",
+                 "liver_entry_objective", "compensate_in_flight"});
+  std::string dof;
+  if (ctl.Read("dof", &dof)) s->control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
+  const YamlReader p = ctl.Child("path");
+  RejectKeysMovedToShared(p, "controller.path");
+  p.CheckKeys({"spacing", "switch_distance"});
+  p.Read("spacing", &s->path.spacing);
+  p.Read("switch_distance", &s->path.switching.switch_distance);
+  ReadFixedVector<6>(ctl, "pose_steps", &s->control.pose_steps);
+  ReadFixedVector<7>(ctl, "joint_steps", &s->control.joint_steps);
+  if (ctl.Has("gains")) {
+    const YamlReader g = ctl.Child("gains");
+    g.CheckKeys({"position", "angle", "entry"});
+    g.Read("position", &s->control.gains.position);
+    g.Read("angle", &s->control.gains.angle);
+    g.Read("entry", &s->control.gains.entry);
+  }
+  ctl.Read("regularization", &s->control.law.regularization);
+  ctl.Read("max_translation_step", &s->control.law.max_translation_step);
+  ctl.Read("max_rotation_step", &s->control.law.max_rotation_step);
+  ctl.Read("max_joint_step", &s->control.law.max_joint_step);
+  ctl.Read("liver_entry_objective", &s->control.liver_entry_objective);
+  ctl.Read("compensate_in_flight", &s->control.compensate_in_flight);
+  ValidateAs([&] { s->path.Validate(); }, path, "controller.", "controller.");
+  ValidateAs([&] { s->control.Validate(); }, path, "controller.", "controller.");
+}
+
+// prediction (optional): the marker predictor and the horizon; the search lead resolved
+void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScenario* s) {
+  if (!pred.IsNull()) {
+    pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
+                    "pca_window", "search_lead", "search_interval", "horizon_window",
+                    "localization_delay", "displacement", "measure_latency"});
+    pred.Read("displacement", &s->prediction_displacement);
+    pred.Read("measure_latency", &s->prediction_measure_latency);
+    pred.Read("enabled", &s->prediction_enabled);
+    std::string filter;
+    if (pred.Read("filter", &filter)) s->prediction.filter = ParsePredictionFilter(filter);
+    pred.Read("order", &s->prediction.order);
+    pred.Read("window", &s->prediction.window);
+    pred.Read("optimize_window", &s->prediction.optimize_window);
+    pred.Read("window_max", &s->prediction.window_max);
+    pred.Read("pca_window", &s->prediction.pca_window);
+    pred.Read("search_interval", &s->prediction.search_interval);
+    if (pred.Has("search_lead") && pred.Child("search_lead").AsString() != "auto") {
+      pred.Read("search_lead", &s->prediction.search_lead);
+      s->prediction_search_lead_auto = false;
+    }
+    pred.Read("horizon_window", &s->horizon.window);
+    pred.Read("localization_delay", &s->horizon.localization_delay);
+  }
+  ResolveSearchLead(s);
+  ValidateAs([&] { s->prediction.Validate(); }, path, "prediction.", "prediction.");
+  ValidateAs([&] { s->horizon.Validate(); }, path, "horizon.", "prediction.");
+}
+
+// the shared dds section (optional)
+void ReadDds(const YamlReader& dds, InverseScenario* s) {
+  if (dds.IsNull()) return;
+  dds.CheckKeys({"domain", "partition"});
+  dds.Read("domain", &s->dds_domain);
+  dds.Read("partition", &s->dds_partition);
+}
+
+// run.mode of the direct side (optional): lockstep or not; the other run keys are direct_sim's
+void ReadRunMode(const YamlReader& run, InverseScenario* s) {
+  if (run.IsNull()) return;
+  std::string mode;
+  if (run.Read("mode", &mode)) {
+    if (mode != "realtime" && mode != "lockstep")
+      run.Fail("mode", Str("expected realtime or lockstep, got '", mode, "'"));
+    s->lockstep = mode == "lockstep";
+  }
+}
+
 }  // namespace
 
 InverseScenario LoadInverseScenario(const std::string& path) {
@@ -61,95 +157,11 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   s.shared = ReadSharedScenario(root);
   s.scenario_hash = ScenarioHash(s.shared);
   ApplyShared(s.shared, &s);
-
-  const YamlReader inv = root.Child("inverse");
-  RejectKeysMovedToShared(inv, "inverse");
-  inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint"});
-  std::filesystem::path mesh = inv.Child("mesh").AsString();
-  if (mesh.is_relative()) mesh = std::filesystem::path(path).parent_path() / mesh;
-  s.mesh_path = mesh.lexically_normal().string();
-  if (inv.Has("liver")) ReadFem(inv.Child("liver"), &s.model.liver);
-  inv.Read("young_modulus_factor", &s.model.young_modulus_factor);
-  inv.Read("puncture_force", &s.model.puncture_force);
-  inv.Read("point_spacing", &s.model.point_spacing);
-  inv.Read("tip_constraint", &s.model.tip_constraint);
-  ValidateAs([&] { s.model.Validate(); }, path, "inverse.", "inverse.");
-
-  const YamlReader ctl = root.Child("controller");
-  RejectKeysMovedToShared(ctl, "controller");
-  ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
-                 "max_translation_step", "max_rotation_step", "max_joint_step",
-                 "liver_entry_objective", "compensate_in_flight"});
-  std::string dof;
-  if (ctl.Read("dof", &dof)) s.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
-  const YamlReader p = ctl.Child("path");
-  RejectKeysMovedToShared(p, "controller.path");
-  p.CheckKeys({"spacing", "switch_distance"});
-  p.Read("spacing", &s.path.spacing);
-  p.Read("switch_distance", &s.path.switching.switch_distance);
-  ReadFixedVector<6>(ctl, "pose_steps", &s.control.pose_steps);
-  ReadFixedVector<7>(ctl, "joint_steps", &s.control.joint_steps);
-  if (ctl.Has("gains")) {
-    const YamlReader g = ctl.Child("gains");
-    g.CheckKeys({"position", "angle", "entry"});
-    g.Read("position", &s.control.gains.position);
-    g.Read("angle", &s.control.gains.angle);
-    g.Read("entry", &s.control.gains.entry);
-  }
-  ctl.Read("regularization", &s.control.law.regularization);
-  ctl.Read("max_translation_step", &s.control.law.max_translation_step);
-  ctl.Read("max_rotation_step", &s.control.law.max_rotation_step);
-  ctl.Read("max_joint_step", &s.control.law.max_joint_step);
-  ctl.Read("liver_entry_objective", &s.control.liver_entry_objective);
-  ctl.Read("compensate_in_flight", &s.control.compensate_in_flight);
-  ValidateAs([&] { s.path.Validate(); }, path, "controller.", "controller.");
-  ValidateAs([&] { s.control.Validate(); }, path, "controller.", "controller.");
-
-  const YamlReader pred = root.OptionalChild("prediction");
-  if (!pred.IsNull()) {
-    pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
-                    "pca_window", "search_lead", "search_interval", "horizon_window",
-                    "localization_delay", "displacement", "measure_latency"});
-    pred.Read("displacement", &s.prediction_displacement);
-    pred.Read("measure_latency", &s.prediction_measure_latency);
-    pred.Read("enabled", &s.prediction_enabled);
-    std::string filter;
-    if (pred.Read("filter", &filter)) s.prediction.filter = ParsePredictionFilter(filter);
-    pred.Read("order", &s.prediction.order);
-    pred.Read("window", &s.prediction.window);
-    pred.Read("optimize_window", &s.prediction.optimize_window);
-    pred.Read("window_max", &s.prediction.window_max);
-    pred.Read("pca_window", &s.prediction.pca_window);
-    pred.Read("search_interval", &s.prediction.search_interval);
-    if (pred.Has("search_lead") && pred.Child("search_lead").AsString() != "auto") {
-      pred.Read("search_lead", &s.prediction.search_lead);
-      s.prediction_search_lead_auto = false;
-    }
-    pred.Read("horizon_window", &s.horizon.window);
-    pred.Read("localization_delay", &s.horizon.localization_delay);
-  }
-  ResolveSearchLead(&s);
-  ValidateAs([&] { s.prediction.Validate(); }, path, "prediction.", "prediction.");
-  ValidateAs([&] { s.horizon.Validate(); }, path, "horizon.", "prediction.");
-
-  const YamlReader dds = root.OptionalChild("dds");
-  if (!dds.IsNull()) {
-    dds.CheckKeys({"domain", "partition"});
-    dds.Read("domain", &s.dds_domain);
-    dds.Read("partition", &s.dds_partition);
-  }
-
-  const YamlReader run = root.OptionalChild("run");
-  if (!run.IsNull()) {
-    std::string mode;
-    if (run.Read("mode", &mode)) {
-      if (mode != "realtime" && mode != "lockstep")
-        run.Fail("mode", Str("expected realtime or lockstep, got '", mode, "'"));
-      s.lockstep = mode == "lockstep";
-    }
-  }
-
+  ReadInverse(root.Child("inverse"), path, &s);
+  ReadController(root.Child("controller"), path, &s);
+  ReadPrediction(root.OptionalChild("prediction"), path, &s);
+  ReadDds(root.OptionalChild("dds"), &s);
+  ReadRunMode(root.OptionalChild("run"), &s);
   return s;
 }
 

@@ -1,0 +1,234 @@
+#include "direct_sim/scenario_sections.h"
+
+#include "common/core/error.h"
+#include "common/mesh/gmsh_reader.h"
+#include "common/scenario/shared_scenario.h"
+
+namespace nsim::direct_sections {
+namespace {
+
+std::string Join(const std::string& dir, const std::string& path) {
+  if (path.empty() || path[0] == '/' || dir.empty()) return path;
+  return dir + "/" + path;
+}
+
+OrientedBox ReadBox(const YamlReader& node) {
+  node.CheckKeys({"center", "half_size", "rpy"});
+  OrientedBox box;
+  if (!node.Has("center")) node.Fail("center", "missing");
+  if (!node.Has("half_size")) node.Fail("half_size", "missing");
+  node.Read("center", &box.center);
+  node.Read("half_size", &box.half_size);
+  Eigen::Vector3d rpy = Eigen::Vector3d::Zero();
+  node.Read("rpy", &rpy);
+  box.R_WB = (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+              Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+              Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
+                 .toRotationMatrix();
+  return box;
+}
+
+std::vector<OrientedBox> ReadBoxes(const YamlReader& parent, const std::string& key) {
+  std::vector<OrientedBox> boxes;
+  if (!parent.Has(key)) return boxes;
+  const YamlReader list = parent.Child(key);
+  if (!list.IsSequence()) list.Fail("expected a list of boxes {center, half_size, rpy}");
+  for (size_t i = 0; i < list.size(); ++i) boxes.push_back(ReadBox(list.Element(i)));
+  return boxes;
+}
+
+// material, damping and solver keys of a tissue
+const std::vector<std::string> kFemKeys = {"mesh",
+                                           "young_modulus",
+                                           "poisson_ratio",
+                                           "density",
+                                           "rayleigh_mass",
+                                           "rayleigh_stiffness",
+                                           "linear_solver",
+                                           "cg_relative_tolerance",
+                                           "cg_max_iterations",
+                                           "refactor_iteration_threshold",
+                                           "background_refactor"};
+
+void ReadFem(const YamlReader& node, FemConfig* fem) {
+  node.Read("young_modulus", &fem->young_modulus);
+  node.Read("poisson_ratio", &fem->poisson_ratio);
+  node.Read("density", &fem->density);
+  node.Read("rayleigh_mass", &fem->rayleigh_mass);
+  node.Read("rayleigh_stiffness", &fem->rayleigh_stiffness);
+  if (std::string solver; node.Read("linear_solver", &solver))
+    fem->linear_solver = ParseFemLinearSolver(solver, node.Where("linear_solver"));
+  node.Read("cg_relative_tolerance", &fem->cg_relative_tolerance);
+  node.Read("cg_max_iterations", &fem->cg_max_iterations);
+  node.Read("refactor_iteration_threshold", &fem->refactor_iteration_threshold);
+  node.Read("background_refactor", &fem->background_refactor);
+}
+
+TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::string* path) {
+  *path = Join(base_dir, node.Child("mesh").AsString());
+  try {
+    return ReadGmshMesh(*path);
+  } catch (const InputError& e) {
+    throw InputError(Str(node.Where("mesh"), ": ", e.what()));
+  }
+}
+
+void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
+  node.CheckKeys({"puncture_force", "friction_coefficient", "friction_force_per_length",
+                  "point_spacing", "tip_constraint", "contact_margin"});
+  node.Read("puncture_force", &t->puncture_force);
+  node.Read("friction_coefficient", &t->friction_coefficient);
+  node.Read("friction_force_per_length", &t->friction_force_per_length);
+  node.Read("point_spacing", &t->point_spacing);
+  node.Read("tip_constraint", &t->tip_constraint);
+  node.Read("contact_margin", &t->contact_margin);
+}
+
+}  // namespace
+
+void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScenario* s) {
+  RejectKeysMovedToShared(node, "patient");
+  node.CheckKeys({"time_step", "gravity", "constraint_compliance", "liver", "skin", "ribs",
+                  "rib_contact_margin", "diaphragm", "anchors"});
+  PatientSceneConfig& c = s->scene;
+  node.Read("time_step", &c.time_step);
+  node.Read("gravity", &c.gravity);
+  const int compliance = node.ReadChoice("constraint_compliance", {"rest", "current"});
+  if (compliance >= 0) c.liver_rest_compliance = compliance == 0;
+  const YamlReader liver = node.Child("liver");
+  liver.CheckKeys(kFemKeys);
+  ReadFem(liver, &c.liver);
+  const YamlReader skin = node.Child("skin");
+  std::vector<std::string> skin_keys = kFemKeys;
+  skin_keys.push_back("pose");
+  skin_keys.push_back("attach_distance");
+  skin.CheckKeys(skin_keys);
+  ReadFem(skin, &c.skin.fem);
+  skin.Read("pose", &c.skin.X_WS);
+  skin.Read("attach_distance", &c.skin.attach_distance);
+  node.Read("rib_contact_margin", &c.rib_contact_margin);
+  c.ribs = ReadBoxes(node, "ribs");
+  c.diaphragm = ReadBox(node.Child("diaphragm"));
+  c.anchors = ReadBoxes(node, "anchors");
+  // meshes last: the cheap key checks come first
+  s->liver_mesh = ReadMesh(liver, base_dir, &s->liver_mesh_path);
+  s->skin_mesh = ReadMesh(skin, base_dir, &s->skin_mesh_path);
+}
+
+void ReadBreathing(const YamlReader& node, uint64_t seed, BreathingConfig* b) {
+  node.CheckKeys({"period", "period_cv", "amplitude_cv", "si_amplitude", "ap_amplitude",
+                  "lr_amplitude", "shape_exponent", "start_phase", "axis_si", "axis_ap", "axis_lr",
+                  "drift_velocity", "horizon", "random_seed"});
+  b->random_seed = seed;
+  node.Read("period", &b->period);
+  node.Read("period_cv", &b->period_cv);
+  node.Read("amplitude_cv", &b->amplitude_cv);
+  node.Read("si_amplitude", &b->si_amplitude);
+  node.Read("ap_amplitude", &b->ap_amplitude);
+  node.Read("lr_amplitude", &b->lr_amplitude);
+  node.Read("shape_exponent", &b->shape_exponent);
+  node.Read("start_phase", &b->start_phase);
+  node.Read("axis_si", &b->axis_si);
+  node.Read("axis_ap", &b->axis_ap);
+  node.Read("axis_lr", &b->axis_lr);
+  node.Read("drift_velocity", &b->drift_velocity);
+  node.Read("horizon", &b->horizon);
+  node.Read("random_seed", &b->random_seed);
+}
+
+void ReadNeedle(const YamlReader& node, SceneNeedleConfig* n) {
+  RejectKeysMovedToShared(node, "needle");
+  node.CheckKeys({"type", "young_modulus", "poisson_ratio", "density", "elements", "rayleigh_mass",
+                  "rayleigh_stiffness", "skin", "liver", "bevel"});
+  const int type = node.ReadChoice("type", {"rigid", "flexible"});
+  if (type >= 0) n->kind = type == 0 ? NeedleKind::kRigid : NeedleKind::kFlexible;
+  NeedleConfig& g = n->kind == NeedleKind::kRigid ? n->rigid : n->flexible.needle;
+  node.Read("young_modulus", &g.young_modulus);
+  node.Read("poisson_ratio", &g.poisson_ratio);
+  node.Read("density", &g.density);
+  node.Read("elements", &n->flexible.num_elements);
+  node.Read("rayleigh_mass", &n->flexible.rayleigh_mass);
+  node.Read("rayleigh_stiffness", &n->flexible.rayleigh_stiffness);
+  if (node.Has("skin")) ReadTissueCoupling(node.Child("skin"), &n->coupling.tissues[kSkinTissue]);
+  if (node.Has("liver"))
+    ReadTissueCoupling(node.Child("liver"), &n->coupling.tissues[kLiverTissue]);
+  if (node.Has("bevel")) {
+    const YamlReader bevel = node.Child("bevel");
+    bevel.CheckKeys(
+        {"enabled", "diameter", "bevel_angle", "beta_over_alpha", "tissue_stiffness", "mode"});
+    BevelConfig& b = n->coupling.bevel;
+    bevel.Read("enabled", &b.enabled);
+    bevel.Read("diameter", &b.diameter);
+    bevel.Read("bevel_angle", &b.bevel_angle);
+    bevel.Read("beta_over_alpha", &b.beta_over_alpha);
+    bevel.Read("tissue_stiffness", &b.tissue_stiffness);
+    const int mode = bevel.ReadChoice("mode", {"torque", "force"});
+    if (mode >= 0) b.mode = mode == 0 ? BevelLoadMode::kTorque : BevelLoadMode::kForce;
+  }
+}
+
+void ReadRobot(const YamlReader& node, RobotDriverConfig* r) {
+  RejectKeysMovedToShared(node, "robot");
+  node.CheckKeys({"type", "max_linear_speed", "max_angular_speed", "max_linear_acceleration",
+                  "max_angular_acceleration", "workspace_min", "workspace_max"});
+  const int type = node.ReadChoice("type", {"cartesian", "iiwa"});
+  if (type >= 0) r->kind = type == 0 ? RobotKind::kCartesian : RobotKind::kIiwa;
+  node.Read("max_linear_speed", &r->cartesian.max_linear_speed);
+  node.Read("max_angular_speed", &r->cartesian.max_angular_speed);
+  node.Read("max_linear_acceleration", &r->cartesian.max_linear_acceleration);
+  node.Read("max_angular_acceleration", &r->cartesian.max_angular_acceleration);
+  node.Read("workspace_min", &r->cartesian.workspace_min_W);
+  node.Read("workspace_max", &r->cartesian.workspace_max_W);
+}
+
+void ReadRun(const YamlReader& node, RunConfig* run) {
+  node.CheckKeys({"duration", "mode", "latency_steps", "lockstep_timeout", "start_timeout",
+                  "vtk_every", "video", "view_every", "status_period"});
+  node.Read("duration", &run->duration);
+  const int mode = node.ReadChoice("mode", {"realtime", "lockstep"});
+  if (mode >= 0) run->mode = mode == 0 ? RunMode::kRealtime : RunMode::kLockstep;
+  node.Read("latency_steps", &run->latency_steps);
+  node.Read("lockstep_timeout", &run->lockstep_timeout);
+  node.Read("start_timeout", &run->start_timeout);
+  node.Read("vtk_every", &run->vtk_every);
+  node.Read("video", &run->video);
+  node.Read("view_every", &run->view_every);
+  node.Read("status_period", &run->status_period);
+}
+
+void ReadView(const YamlReader& node, ViewerConfig* v) {
+  node.CheckKeys({"width", "height", "eye", "look_at", "up", "fov_deg", "ortho_height", "fps"});
+  node.Read("width", &v->width);
+  node.Read("height", &v->height);
+  node.Read("eye", &v->eye);
+  node.Read("look_at", &v->look_at);
+  node.Read("up", &v->up);
+  node.Read("fov_deg", &v->fov_deg);
+  node.Read("ortho_height", &v->ortho_height);
+  node.Read("fps", &v->fps);
+}
+
+void ReadInsertion(const YamlReader& node, InsertionConfig* ins) {
+  RejectKeysMovedToShared(node, "insertion");
+  node.CheckKeys({"speed", "overshoot"});
+  node.Read("speed", &ins->speed);
+  node.Read("overshoot", &ins->overshoot);
+}
+
+void ReadSafety(const YamlReader& node, TargetGateConfig* safety) {
+  node.CheckKeys({"max_age", "hold_timeout", "speed_horizon", "over_limit"});
+  node.Read("max_age", &safety->max_age);
+  node.Read("hold_timeout", &safety->hold_timeout);
+  node.Read("speed_horizon", &safety->speed_horizon);
+  const int action = node.ReadChoice("over_limit", {"clamp", "reject"});
+  if (action >= 0)
+    safety->over_limit = action == 0 ? OverLimitAction::kClamp : OverLimitAction::kReject;
+}
+
+void ReadDds(const YamlReader& node, int* domain, std::string* partition) {
+  node.CheckKeys({"domain", "partition"});
+  node.Read("domain", domain);
+  node.Read("partition", partition);
+}
+
+}  // namespace nsim::direct_sections
