@@ -6,60 +6,193 @@
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
 #                          [--latency-steps N] [--gain K] [--bevel] [--dof7] [--no-build]
+#                          [--transport in_process|dds] [--jobs N] [--timeout S]
+#                          [--hosts H1,H2,... | --slurm] [--dry-run]
+#   scripts/experiments.sh --collect DIR
 #   scripts/experiments.sh --replay MARKERS.csv [--horizon 0.1,0.2] [--no-build]
 #
 # Closed loop: writes results/experiments_<date>/ (or $NSIM_RESULTS_DIR): runs.csv (one row per
-# run and setting), table.txt (mean and std of the final error and its amplitude per setting,
-# also printed), final_error.png and distance_<setting>.png (run 0), and every run's folders.
-# The default scenario is configs/scenarios/liver_test_coarse.yaml (liver_700 both sides), the
-# default duration 20 s (the steady-state window, the last 20 %, is one breathing period).
+# run and setting, ordered by setting, then run), table.txt (mean and std of the final error
+# and its amplitude per setting, the paired prediction on - off differences; also printed),
+# final_error.png and distance_run0.png, every run's folder SETTING/run_R/, and the batch's
+# description: jobs.txt (one job a line: setting, run, seed, E, scenario, controller flags, tab
+# separated), batch.txt, scenario_*.yaml, joblog.txt (GNU parallel's, one line per job).
+# The default scenario is configs/scenarios/liver_breathing.yaml (the 2656-node patient liver;
+# liver_test_coarse.yaml is the 685-node one, faster), the default duration 20 s (the
+# steady-state window, the last 20 %, is one breathing period).
 # --gain K sets the control gains k (eq. 3.9) of every setting: the scenarios' 0.1 suits a
 # 1-step latency; with --latency-steps 5 use --gain 0.5 (README, Limitations).
+#
+# How the runs are run: every run is one command, scripts/experiment_run.sh, on one core, and
+# GNU parallel (Debian `parallel`, installed by scripts/setup.sh) runs the job list side by side:
+#   --transport in_process  (default) direct_sim run --in-process: both loops in one process, no
+#                           DDS; the same results as the two-process lockstep run
+#   --transport dds         inverse_sim run + direct_sim run over DDS, each run on its own
+#                           partition exp<pid>_<setting>_<run>
+#   --jobs N                runs at a time (default: the number of cores, `nproc`; with --hosts:
+#                           per host, default one per core of each host)
+#   --timeout S             a run still going after S seconds is killed and counted as failed
+#                           (default 600); a failed run does not stop the batch
+#   --hosts H1,H2           the same jobs over ssh (parallel's --sshlogin; ':' is this machine,
+#                           "4/H" runs 4 at a time on H). Every host must reach the others'
+#                           paths: the repository, the build ($NSIM_BUILD_DIR) and the results
+#                           folder at the same absolute path on every host (a shared file system,
+#                           e.g. NFS); nothing is copied. ssh must log in without a prompt.
+#   --slurm                 runs nothing: writes DIR/experiments.sbatch, a Slurm job array with
+#                           one task per line of DIR/jobs.txt (same paths on every node, as for
+#                           --hosts; --jobs N limits the tasks running at once), to submit with
+#                           `sbatch DIR/experiments.sbatch`; when the array has finished,
+#                           `scripts/experiments.sh --collect DIR` makes runs.csv, table.txt, plots
+#   --dry-run               writes the batch folder (scenarios, jobs.txt) and prints the parallel
+#                           command and the command of every job, without running any
+#   --collect DIR           (re)builds runs.csv, table.txt and the plots of DIR from its run folders
 #
 # --replay: the recorded marker stream is replayed by direct_sim into inverse_sim record over
 # DDS (open loop: no robot, no controller), the recording is checked against the stream, and
 # the predictors are evaluated on it (inverse_sim predict-eval: LF order 2 with optimized window
 # = prediction on, "none" = prediction off).
+#
+# Exit codes: 0 success (failed runs are counted in table.txt and named at the end), 2 a bad
+# option (the message names it), 1 anything else (e.g. GNU parallel or a plot missing).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-runs=22; seed=1; scenario="$root/configs/scenarios/liver_test_coarse.yaml"; duration=20
+runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=20
 latency=1; gain=""; bevel=0; dof7=0; build=1; replay=""; horizon="0.1,0.2,0.4"
-usage() { sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; }
+transport=in_process; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
+usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
+die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
+  # the options that take a value must have one
+  case "$1" in
+    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+      [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
+  esac
   case "$1" in
     --runs) runs="$2"; shift 2 ;;
     --seed) seed="$2"; shift 2 ;;
-    --scenario) scenario="$(realpath "$2")"; shift 2 ;;
+    --scenario) scenario="$(realpath -m "$2")"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
     --latency-steps) latency="$2"; shift 2 ;;
     --gain) gain="$2"; shift 2 ;;
     --bevel) bevel=1; shift ;;
     --dof7) dof7=1; shift ;;
-    --replay) replay="$(realpath "$2")"; shift 2 ;;
+    --transport) transport="$2"; shift 2 ;;
+    --jobs) jobs="$2"; shift 2 ;;
+    --timeout) timeout="$2"; shift 2 ;;
+    --hosts) hosts="$2"; shift 2 ;;
+    --slurm) slurm=1; shift ;;
+    --dry-run) dry_run=1; shift ;;
+    --collect) collect="$(realpath -m "$2")"; shift 2 ;;
+    --replay) replay="$(realpath -m "$2")"; shift 2 ;;
     --horizon) horizon="$2"; shift 2 ;;
     --no-build) build=0; shift ;;
     -h|--help) usage; exit 0 ;;
-    *) echo "experiments: unknown option '$1' (see --help)" >&2; exit 2 ;;
+    *) die "unknown option '$1' (see --help)" ;;
   esac
 done
-[[ "$runs" =~ ^[1-9][0-9]*$ ]] || { echo "experiments: --runs must be a positive integer, got '$runs'" >&2; exit 2; }
-[[ "$seed" =~ ^[0-9]+$ ]] || { echo "experiments: --seed must be an integer >= 0, got '$seed'" >&2; exit 2; }
-[[ "$latency" =~ ^[0-9]+$ ]] || { echo "experiments: --latency-steps must be an integer >= 0" >&2; exit 2; }
-[ -f "$scenario" ] || { echo "experiments: no such scenario: $scenario" >&2; exit 2; }
+[[ "$runs" =~ ^[1-9][0-9]*$ ]] || die "--runs must be a positive integer, got '$runs'"
+[[ "$seed" =~ ^[0-9]+$ ]] || die "--seed must be an integer >= 0, got '$seed'"
+[[ "$latency" =~ ^[0-9]+$ ]] || die "--latency-steps must be an integer >= 0, got '$latency'"
+if ! [[ "$duration" =~ ^([0-9]+\.?[0-9]*|\.[0-9]+)$ ]] || ! awk -v d="$duration" 'BEGIN { exit !(d > 0) }'; then
+  die "--duration must be a number of seconds > 0, got '$duration'"
+fi
+[ -f "$scenario" ] || die "--scenario: no such file: $scenario"
 [ -z "$gain" ] || [[ "$gain" =~ ^(0?\.[0-9]*[1-9][0-9]*|1(\.0*)?)$ ]] \
-  || { echo "experiments: --gain must be a number in (0, 1], got '$gain'" >&2; exit 2; }
+  || die "--gain must be a number in (0, 1], got '$gain'"
+case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
+[ -z "$jobs" ] || [[ "$jobs" =~ ^[1-9][0-9]*$ ]] || die "--jobs must be a positive integer, got '$jobs'"
+[[ "$timeout" =~ ^[1-9][0-9]*$ ]] || die "--timeout must be a positive integer (seconds), got '$timeout'"
+# --hosts: a comma-separated list of parallel sshlogins ([N/][user@]host[:port] or ':')
+ssh_logins=()
+if [ -n "$hosts" ]; then
+  IFS=',' read -ra hl <<< "$hosts"
+  [ ${#hl[@]} -gt 0 ] || die "--hosts must list at least one host, got '$hosts'"
+  for h in "${hl[@]}"; do
+    [[ "$h" =~ ^[^[:space:]\'\"]+$ ]] || die "--hosts: bad host '$h' in '$hosts'"
+    ssh_logins+=(--sshlogin "$h")
+  done
+fi
+[ -z "$hosts" ] || [ "$slurm" = 0 ] || die "--hosts and --slurm exclude each other"
+
+# ---- the batch's table and plots, from its folder (after the local runs, or --collect) ----
+# runs.csv in the order of jobs.txt (setting, then run) whatever order the runs ended in; a run
+# without a summary (failed to start, killed by the timeout) is a row "no_summary"
+collect_batch() {  # collect_batch DIR
+  local dir="$1" e0 bseed blatency
+  [[ -f "$dir/jobs.txt" && -f "$dir/batch.txt" ]] \
+    || die "--collect: $dir is not a batch folder (no jobs.txt and batch.txt)"
+  command -v jq > /dev/null || { echo "experiments: jq is missing: run scripts/setup.sh" >&2; exit 1; }
+  meta() { awk -v k="$1" '$1 == k { print $2; exit }' "$dir/batch.txt"; }
+  e0="$(meta e0)"; bseed="$(meta seed)"; blatency="$(meta latency_steps)"
+  echo "setting,run,seed,young_modulus_pa,exit,final_error_mm,final_error_amplitude_mm,min_distance_mm,direct_rate_hz,inverse_rate_hz,loop_latency_ms,nrms_mean_percent,rejected_targets" > "$dir/runs.csv"
+  local name r rseed emod _
+  while IFS=$'\t' read -r name r rseed emod _; do
+    "$root/scripts/experiment_run.sh" row "$dir/$name/run_$r" "$name" "$r" "$rseed" "$emod" >> "$dir/runs.csv"
+  done < "$dir/jobs.txt"
+
+  # mean and std per setting (runs with numbers; failed runs counted)
+  awk -F, 'NR > 1 { n[$1]++; if ($6 != "") { k[$1]++; e[$1] += $6; e2[$1] += $6 * $6; a[$1] += $7; a2[$1] += $7 * $7;
+                     if ($12 != "") { m[$1]++; nr[$1] += $12 } } else bad[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 } }
+    function sd(s, s2, c) { return c > 1 ? sqrt((s2 - s * s / c) / (c - 1)) : 0 }
+    END { printf "%-16s %5s %22s %22s %12s %7s\n", "setting", "runs", "final error (mm)", "amplitude (mm)", "nRMS (%)", "failed";
+          for (i = 1; i <= o; i++) { s = order[i]; c = k[s];
+            printf "%-16s %5d %12.3f +- %6.3f %12.3f +- %6.3f %12s %7d\n", s, n[s], c ? e[s] / c : 0, sd(e[s], e2[s], c),
+                   c ? a[s] / c : 0, sd(a[s], a2[s], c), m[s] ? sprintf("%.1f", nr[s] / m[s]) : "-", bad[s] + 0 } }' \
+    "$dir/runs.csv" > "$dir/table.txt"
+  { echo; echo "mean +- std over runs; final error = mean true tip-to-target distance over the last 20 % of each run,"
+    echo "amplitude = its peak-to-peak; patient E uniform in $e0 Pa +-13 % (seed $bseed), lockstep latency $blatency steps"; } >> "$dir/table.txt"
+  # prediction on against off, paired by run (same seed and E): mean +- std of the differences,
+  # the paired t statistic (|t| > 2.08 is significant at 5 % for 22 runs), the runs where
+  # prediction was better, and the change of the mean amplitude
+  awk -F, 'NR > 1 && $6 != "" { key = $1; sub(/_?pred_(on|off)$/, "", key); if (key == "") key = "base"; side = ($1 ~ /pred_on$/) ? "on" : "off";
+                                e[key, side, $2] = $6; a[key, side, $2] = $7; runs[key, $2] = 1; if (!(key in seen)) { seen[key] = 1; order[++o] = key } }
+    function stats(v, c,   i, s, s2) { s = 0; s2 = 0; for (i = 1; i <= c; i++) { s += v[i]; s2 += v[i] * v[i] }
+      mean = s / c; sdev = c > 1 ? sqrt((s2 - s * s / c) / (c - 1)) : 0; t = sdev > 0 ? mean / (sdev / sqrt(c)) : 0 }
+    END { for (i = 1; i <= o; i++) { k = order[i]; c = 0; better = 0; son = 0; soff = 0
+            for (kr in runs) { split(kr, p, SUBSEP); if (p[1] != k || !((k, "on", p[2]) in e) || !((k, "off", p[2]) in e)) continue
+              c++; de[c] = e[k, "on", p[2]] - e[k, "off", p[2]]; da[c] = a[k, "on", p[2]] - a[k, "off", p[2]]
+              son += a[k, "on", p[2]]; soff += a[k, "off", p[2]]; if (da[c] < 0) better++ }
+            if (c < 2) continue
+            if (!header++) printf "\nprediction on - off, paired by run:\n%-16s %5s %26s %26s %14s %10s\n", "setting", "pairs", "final error diff (mm), t", "amplitude diff (mm), t", "amp. smaller", "mean amp."
+            stats(de, c); fe = sprintf("%+.3f +- %.3f, %+.2f", mean, sdev, t)
+            stats(da, c); fa = sprintf("%+.3f +- %.3f, %+.2f", mean, sdev, t)
+            printf "%-16s %5d %26s %26s %8d of %2d %+9.1f%%\n", k, c, fe, fa, better, c, (soff > 0 ? 100 * (son - soff) / soff : 0) } }' \
+    "$dir/runs.csv" >> "$dir/table.txt"
+  echo; cat "$dir/table.txt"
+
+  # the final errors of every run, and the distance curves of run 0 of every setting
+  local plot_ok=1 n pairs=()
+  if [ -x /usr/bin/python3 ] && /usr/bin/python3 -c "import matplotlib" 2>/dev/null; then
+    /usr/bin/python3 "$root/scripts/plot_results.py" experiments --runs "$dir/runs.csv" --out "$dir" || plot_ok=0
+    while read -r n; do
+      [ -f "$dir/$n/run_0/direct/timeseries.csv" ] && pairs+=("$n=$dir/$n/run_0/direct")
+    done < <(cut -f1 "$dir/jobs.txt" | awk '!seen[$0]++')
+    [ ${#pairs[@]} -eq 0 ] || /usr/bin/python3 "$root/scripts/plot_results.py" compare --out "$dir/distance_run0.png" "${pairs[@]}" || plot_ok=0
+  else
+    echo "experiments: the plots could not be made: /usr/bin/python3 with matplotlib is missing" >&2
+    plot_ok=0
+  fi
+  local failed
+  failed=$(awk -F, 'NR > 1 && $5 != "completed" { printf "%s%s/run_%s (%s)", sep, $1, $2, $5; sep = ", " }' "$dir/runs.csv")
+  [ -z "$failed" ] || echo "experiments: runs that did not complete: $failed (their logs: DIR/SETTING/run_R/*.log)"
+  echo "experiments: results in $dir"
+  [ "$plot_ok" = 1 ]
+}
+
+if [ -n "$collect" ]; then
+  [ -d "$collect" ] || die "--collect: no such folder: $collect"
+  collect_batch "$collect"
+  exit
+fi
 
 if [ "$build" = 1 ]; then
   "$root/scripts/setup.sh"
   "$root/scripts/build.sh" >/dev/null
 fi
 bin="${NSIM_BUILD_DIR:-$root/build}/bin"
+bin="$(realpath -m "$bin")"
 out="${NSIM_RESULTS_DIR:-$root/results/experiments_$(date +%Y%m%d_%H%M%S)}"
 mkdir -p "$out"; out="$(realpath "$out")"
-# a 3 s liveliness lease: lockstep needs no fast dead-peer detection, and a shorter lease can
-# expire on a loaded 2-core machine (measured: both sides declared the other dead at 0.5 s
-# while a build ran)
-dds=(--dds-config "$root/configs/dds/local.xml" --domain "${NSIM_DOMAIN:-0}" --lease 3)
 
 pids=()
 cleanup() {
@@ -71,7 +204,9 @@ trap 'echo "experiments: interrupted"; exit 130' INT TERM
 
 # ---- open-loop replay of a recorded marker stream ----
 if [ -n "$replay" ]; then
-  [ -f "$replay" ] || { echo "experiments: no such marker stream: $replay" >&2; exit 2; }
+  [ -f "$replay" ] || die "--replay: no such marker stream: $replay"
+  # a 3 s liveliness lease, as in scripts/experiment_run.sh (a loaded machine)
+  dds=(--dds-config "$root/configs/dds/local.xml" --domain "${NSIM_DOMAIN:-0}" --lease 3)
   echo "experiments: replaying $replay into inverse_sim record (open loop); results in $out"
   part=(--partition "exp$$")
   "$bin/inverse_sim" record --out "$out/recorded.csv" --summary "$out/record_summary.json" \
@@ -84,7 +219,7 @@ if [ -n "$replay" ]; then
   rec_code=0; wait "$rec" || rec_code=$?
   pids=()
   tail -n 1 "$out/replay.log"; tail -n 1 "$out/record.log"
-  [ "$rep_code" -eq 0 ] && [ "$rec_code" -eq 0 ] || { echo "experiments: replay exit $rep_code, record exit $rec_code" >&2; exit 1; }
+  [[ "$rep_code" -eq 0 && "$rec_code" -eq 0 ]] || { echo "experiments: replay exit $rep_code, record exit $rec_code" >&2; exit 1; }
   "$bin/inverse_sim" predict-eval --markers "$out/recorded.csv" --horizon "$horizon" --order 2 \
     --optimize-window --filter lf,none --seed "$seed" --out "$out/prediction" > "$out/prediction.log"
   cp "$out/prediction/table.txt" "$out/table.txt"
@@ -93,7 +228,7 @@ if [ -n "$replay" ]; then
   exit 0
 fi
 
-# ---- closed-loop batch ----
+# ---- closed-loop batch: the settings and the job list ----
 # the scenario with absolute mesh paths, and its variants (bevel, iiwa)
 # --gain K replaces the controller's gains (position, angle, entry) in every variant
 gain_expr=()
@@ -103,104 +238,119 @@ variant() {  # variant NAME SED-EXPRESSION...
   local dir; dir="$(dirname "$scenario")"
   sed -e "s|\.\./meshes/|$(realpath "$dir/../meshes")/|g" "$@" "${gain_expr[@]}" "$scenario" > "$out/scenario_$name.yaml"
   if [ -n "$gain" ] && ! grep -q "^  gains: {position: $gain," "$out/scenario_$name.yaml"; then
-    echo "experiments: cannot set the gains in $scenario (no '  gains:' line)" >&2; exit 2
+    die "cannot set the gains in $scenario (no '  gains:' line)"
   fi
   echo "$out/scenario_$name.yaml"
 }
 base="$(variant base -e 's|^\(  mode:\).*|\1 lockstep|')"
+grep -q "^  mode: lockstep" "$base" || die "cannot set run.mode to lockstep in $scenario (no '  mode:' line)"
 settings=("pred_on|$base|--prediction on" "pred_off|$base|--prediction off")
 if [ "$bevel" = 1 ]; then
-  bev="$(variant bevel -e 's|^\(  bevel: {enabled:\) false|\1 true|')"
-  grep -q "bevel: {enabled: true" "$bev" || { echo "experiments: cannot turn the bevel on in $scenario" >&2; exit 2; }
+  bev="$(variant bevel -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  bevel: {enabled:\) false|\1 true|')"
+  grep -q "bevel: {enabled: true" "$bev" || die "cannot turn the bevel on in $scenario"
   settings+=("bevel_pred_on|$bev|--prediction on" "bevel_pred_off|$bev|--prediction off")
 fi
 if [ "$dof7" = 1 ]; then
-  iiwa="$(variant iiwa -e 's|^\(  type:\) cartesian |\1 iiwa |')"
-  grep -q "^  type: iiwa" "$iiwa" || { echo "experiments: cannot switch to the iiwa in $scenario" >&2; exit 2; }
+  iiwa="$(variant iiwa -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  type:\) cartesian |\1 iiwa |')"
+  grep -q "^  type: iiwa" "$iiwa" || die "cannot switch to the iiwa in $scenario"
   settings+=("dof7_pred_on|$iiwa|--prediction on --dof joint7" "dof7_pred_off|$iiwa|--prediction off --dof joint7")
 fi
 e0=$(awk '/^  liver:/{l=1} l&&/young_modulus:/{print $2; exit}' "$scenario")
 h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
+[[ -n "$e0" && -n "$h" ]] || die "cannot read patient.liver.young_modulus and patient.time_step from $scenario"
+# the controller's localization delay: the lockstep latency (steps x h), unless the scenario
+# has the controller measure the loop latency itself (prediction.measure_latency: true; its
+# localization_delay is then a tracker's own delay, on top of the measured one)
 delay=$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')
+if awk '/^prediction:/{p=1; next} /^[^ #]/{p=0} p && /^  measure_latency: *true/{f=1} END{exit !f}' "$scenario"; then delay=""; fi
 # per run: breathing seed and the patient's Young's modulus, uniform in E0 (1 +- 0.13), seeded
 awk -v n="$runs" -v s="$seed" -v e0="$e0" 'BEGIN { srand(s); for (r = 0; r < n; r++)
   printf "%d %d %.1f\n", r, s + r, e0 * (1 + 0.13 * (2 * rand() - 1)) }' > "$out/draws.txt"
+# the job list, one run a line: setting, run, seed, E, scenario, controller flags (tab separated)
+for s in "${settings[@]}"; do
+  IFS='|' read -r name cfg inv <<< "$s"
+  while read -r r rseed emod; do
+    printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$r" "$rseed" "$emod" "$cfg" "$inv"
+  done < "$out/draws.txt"
+done > "$out/jobs.txt"
+njobs=$(wc -l < "$out/jobs.txt")
+# what --collect needs besides jobs.txt (the table's footer), and a record of the batch
+printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" latency_steps "$latency" \
+  duration_s "$duration" transport "$transport" timeout_s "$timeout" > "$out/batch.txt"
 
-echo "experiments: $runs runs x ${#settings[@]} settings, lockstep (latency $latency steps), $duration s each, E0 = $e0 Pa +-13 %; results in $out"
-echo "setting,run,seed,young_modulus_pa,exit,final_error_mm,final_error_amplitude_mm,min_distance_mm,direct_rate_hz,inverse_rate_hz,loop_latency_ms,nrms_mean_percent,rejected_targets" > "$out/runs.csv"
-while read -r r rseed emod; do
-  for s in "${settings[@]}"; do
-    IFS='|' read -r name cfg inv <<< "$s"
-    dir="$out/$name/run_$r"; mkdir -p "$dir"
-    part=(--partition "exp$$_${name}_$r")
-    # shellcheck disable=SC2086
-    "$bin/inverse_sim" run --config "$cfg" --out "$dir/inverse" --mode lockstep --timeout 600 \
-      --localization-delay "$delay" $inv --quiet "${dds[@]}" "${part[@]}" > "$dir/inverse.log" 2>&1 &
-    ip=$!; pids=("$ip")
-    timeout -s KILL 600 "$bin/direct_sim" run --config "$cfg" --out "$dir/direct" --mode lockstep \
-      --latency-steps "$latency" --duration "$duration" --seed "$rseed" --young-modulus "$emod" \
-      --no-video --quiet "${dds[@]}" "${part[@]}" > "$dir/direct.log" 2>&1 &
-    dp=$!; pids+=("$dp")
-    dcode=0; wait "$dp" || dcode=$?
-    for _ in $(seq 1 50); do kill -0 "$ip" 2>/dev/null || break; sleep 0.1; done
-    kill "$ip" 2>/dev/null || true; wait "$ip" 2>/dev/null || true
-    pids=()
-    if [ -f "$dir/direct/summary.json" ]; then
-      row=$(jq -r --slurpfile i <(cat "$dir/inverse/summary.json" 2>/dev/null || echo '{}') '
-        ($i[0] // {}) as $i |
-        [.exit, .final_error_mm, .final_error_amplitude_mm, .min_tip_to_target_distance_mm,
-         .direct_rate_hz, $i.inverse_rate_hz, .loop_latency_ms.mean,
-         (($i.nrms_percent // []) | map(select(. != null)) | if length > 0 then add / length else null end),
-         .targets.rejected_total] | map(if . == null then "" else tostring end) | join(",")' \
-        "$dir/direct/summary.json")
-    else
-      row="no_summary,,,,,,,,"
-    fi
-    echo "$name,$r,$rseed,$emod,$row" >> "$out/runs.csv"
-    printf 'experiments: %-14s run %2d (seed %d, E = %s Pa): exit %d, %s\n' "$name" "$r" "$rseed" "$emod" "$dcode" \
-      "$(echo "$row" | awk -F, '{printf "final error %s mm, amplitude %s mm", $2, $3}')"
-  done
-done < "$out/draws.txt"
+# the one-run command shared by every job (parallel adds the job's six fields as {1}..{6},
+# a Slurm task reads them from its line of jobs.txt)
+run_cmd=("$root/scripts/experiment_run.sh" run --out "$out" --bin "$bin" --transport "$transport"
+         --latency-steps "$latency" --duration "$duration" --timeout "$timeout"
+         --partition-prefix "exp$$" --domain "${NSIM_DOMAIN:-0}")
+[ -z "$delay" ] || run_cmd+=(--localization-delay "$delay")
+[ "$dry_run" = 1 ] || [ -x "$bin/direct_sim" ] || { echo "experiments: no $bin/direct_sim: build first (scripts/build.sh) or set NSIM_BUILD_DIR" >&2; exit 1; }
 
-# mean and std per setting (runs with numbers; failed runs counted)
-awk -F, 'NR > 1 { n[$1]++; if ($6 != "") { k[$1]++; e[$1] += $6; e2[$1] += $6 * $6; a[$1] += $7; a2[$1] += $7 * $7;
-                   if ($12 != "") { m[$1]++; nr[$1] += $12 } } else bad[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 } }
-  function sd(s, s2, c) { return c > 1 ? sqrt((s2 - s * s / c) / (c - 1)) : 0 }
-  END { printf "%-16s %5s %22s %22s %12s %7s\n", "setting", "runs", "final error (mm)", "amplitude (mm)", "nRMS (%)", "failed";
-        for (i = 1; i <= o; i++) { s = order[i]; c = k[s];
-          printf "%-16s %5d %12.3f +- %6.3f %12.3f +- %6.3f %12s %7d\n", s, n[s], c ? e[s] / c : 0, sd(e[s], e2[s], c),
-                 c ? a[s] / c : 0, sd(a[s], a2[s], c), m[s] ? sprintf("%.1f", nr[s] / m[s]) : "-", bad[s] + 0 } }' \
-  "$out/runs.csv" > "$out/table.txt"
-{ echo; echo "mean +- std over runs; final error = mean true tip-to-target distance over the last 20 % of each run,"
-  echo "amplitude = its peak-to-peak; patient E uniform in $e0 Pa +-13 % (seed $seed), lockstep latency $latency steps"; } >> "$out/table.txt"
-# prediction on against off, paired by run (same seed and E): mean +- std of the differences,
-# the paired t statistic (|t| > 2.08 is significant at 5 % for 22 runs), the runs where
-# prediction was better, and the change of the mean amplitude
-awk -F, 'NR > 1 && $6 != "" { key = $1; sub(/_?pred_(on|off)$/, "", key); if (key == "") key = "base"; side = ($1 ~ /pred_on$/) ? "on" : "off";
-                              e[key, side, $2] = $6; a[key, side, $2] = $7; runs[key, $2] = 1; if (!(key in seen)) { seen[key] = 1; order[++o] = key } }
-  function stats(v, c,   i, s, s2) { s = 0; s2 = 0; for (i = 1; i <= c; i++) { s += v[i]; s2 += v[i] * v[i] }
-    mean = s / c; sdev = c > 1 ? sqrt((s2 - s * s / c) / (c - 1)) : 0; t = sdev > 0 ? mean / (sdev / sqrt(c)) : 0 }
-  END { for (i = 1; i <= o; i++) { k = order[i]; c = 0; better = 0; son = 0; soff = 0
-          for (kr in runs) { split(kr, p, SUBSEP); if (p[1] != k || !((k, "on", p[2]) in e) || !((k, "off", p[2]) in e)) continue
-            c++; de[c] = e[k, "on", p[2]] - e[k, "off", p[2]]; da[c] = a[k, "on", p[2]] - a[k, "off", p[2]]
-            son += a[k, "on", p[2]]; soff += a[k, "off", p[2]]; if (da[c] < 0) better++ }
-          if (c < 2) continue
-          if (!header++) printf "\nprediction on - off, paired by run:\n%-16s %5s %26s %26s %14s %10s\n", "setting", "pairs", "final error diff (mm), t", "amplitude diff (mm), t", "amp. smaller", "mean amp."
-          stats(de, c); fe = sprintf("%+.3f +- %.3f, %+.2f", mean, sdev, t)
-          stats(da, c); fa = sprintf("%+.3f +- %.3f, %+.2f", mean, sdev, t)
-          printf "%-16s %5d %26s %26s %8d of %2d %+9.1f%%\n", k, c, fe, fa, better, c, (soff > 0 ? 100 * (son - soff) / soff : 0) } }' \
-  "$out/runs.csv" >> "$out/table.txt"
-echo; cat "$out/table.txt"
-
-plot_ok=1
-if [ -x /usr/bin/python3 ] && /usr/bin/python3 -c "import matplotlib" 2>/dev/null; then
-  /usr/bin/python3 "$root/scripts/plot_results.py" experiments --runs "$out/runs.csv" --out "$out" || plot_ok=0
-  pairs=()
-  for s in "${settings[@]}"; do n="${s%%|*}"; [ -f "$out/$n/run_0/direct/timeseries.csv" ] && pairs+=("$n=$out/$n/run_0/direct"); done
-  [ ${#pairs[@]} -gt 0 ] && { /usr/bin/python3 "$root/scripts/plot_results.py" compare --out "$out/distance_run0.png" "${pairs[@]}" || plot_ok=0; }
-else
-  echo "experiments: the plots could not be made: /usr/bin/python3 with matplotlib is missing" >&2
-  plot_ok=0
+# ---- --slurm: a job array over jobs.txt, nothing run here ----
+if [ "$slurm" = 1 ]; then
+  mkdir -p "$out/slurm"
+  sb="$out/experiments.sbatch"
+  {
+    echo "#!/bin/bash"
+    echo "# nsim batch ($njobs runs): task i runs line i+1 of jobs.txt with scripts/experiment_run.sh."
+    echo "# Submit: sbatch $(printf '%q' "$sb")"
+    echo "# When every task has ended: $(printf '%q' "$root/scripts/experiments.sh") --collect $(printf '%q' "$out")"
+    echo "#SBATCH --job-name=nsim_experiments"
+    echo "#SBATCH --array=0-$((njobs - 1))${jobs:+%$jobs}"
+    echo "#SBATCH --cpus-per-task=1"
+    echo "#SBATCH --time=$(( (timeout + 59) / 60 ))"
+    echo "#SBATCH --output=$out/slurm/%A_%a.out"
+    printf 'job_list=%q\n' "$out/jobs.txt"
+    printf 'run_cmd=('; printf ' %q' "${run_cmd[@]}"; printf ' )\n'
+    cat <<'EOF'
+set -euo pipefail
+# this task's job: line SLURM_ARRAY_TASK_ID + 1 of jobs.txt (setting, run, seed, E, scenario, flags)
+IFS=$'\t' read -r setting run seed emod config flags < <(sed -n "$((SLURM_ARRAY_TASK_ID + 1))p" "$job_list")
+exec "${run_cmd[@]}" "$setting" "$run" "$seed" "$emod" "$config" "$flags"
+EOF
+  } > "$sb"
+  chmod +x "$sb"
+  echo "experiments: wrote $sb ($njobs array tasks, one run each, $transport, timeout $timeout s) and $out/jobs.txt"
+  echo "experiments: submit it with   sbatch $sb"
+  echo "experiments: when it has ended, make the table and plots with   $root/scripts/experiments.sh --collect $out"
+  exit 0
 fi
-echo "experiments: results in $out"
-[ "$plot_ok" = 1 ]
+
+# ---- local (or --hosts) batch with GNU parallel ----
+command -v parallel > /dev/null \
+  || { echo "experiments: GNU parallel is missing: run scripts/setup.sh (it installs Debian's parallel)" >&2; exit 1; }
+if [ -z "$jobs" ] && [ -z "$hosts" ]; then jobs="$(nproc)"; fi
+par=(parallel --will-cite --halt never --timeout "$timeout" --joblog "$out/joblog.txt" --colsep '\t')
+[ -z "$jobs" ] || par+=(--jobs "$jobs")
+par+=("${ssh_logins[@]}")
+cmd="$(printf '%q ' "${run_cmd[@]}"){1} {2} {3} {4} {5} {6}"
+if [ "$dry_run" = 1 ]; then
+  echo "experiments: dry run, nothing run; the batch folder is $out"
+  echo "parallel command:"
+  printf ' %q' "${par[@]}"; printf ' %s :::: %q\n' "${cmd@Q}" "$out/jobs.txt"
+  # parallel --dry-run prints them without the ssh part, so ask it on this machine only (with
+  # --hosts it would log in to count the cores)
+  echo "the jobs' commands ($njobs, from parallel --dry-run${hosts:+; each run through ssh on one of the hosts}):"
+  parallel --will-cite --dry-run --colsep '\t' "$cmd" :::: "$out/jobs.txt"
+  exit 0
+fi
+if [ -n "$hosts" ]; then
+  # every host must see the build, the scripts and this results folder at the same paths
+  # (parallel --nonall runs the test once on every host, --tag prefixes its answer with the host)
+  missing=$(parallel --will-cite --nonall --tag "${ssh_logins[@]}" \
+            "test -x $(printf %q "$bin/direct_sim") && test -x $(printf %q "${run_cmd[0]}") && test -f $(printf %q "$out/jobs.txt") || echo missing" 2>&1 || true)
+  [ -z "$missing" ] || { echo "experiments: --hosts: a host does not see $bin, the scripts or $out at the same path:" >&2; echo "$missing" >&2; exit 1; }
+fi
+
+echo "experiments: $runs runs x ${#settings[@]} settings, lockstep (latency $latency steps), $duration s each, E0 = $e0 Pa +-13 %, $transport, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
+start=$(date +%s.%N)
+pcode=0
+"${par[@]}" "$cmd" :::: "$out/jobs.txt" || pcode=$?
+# parallel exits with the number of failed runs (101: more than 100), 255 when it was stopped
+# (Ctrl-C: it ends the running jobs itself, so bash's INT trap does not fire) or failed itself
+if [ "$pcode" -gt 101 ]; then
+  echo "experiments: GNU parallel stopped (exit $pcode: interrupted, or its error above); the runs that ended can be tabulated with: $0 --collect $out" >&2
+  exit 130
+fi
+echo "experiments: $njobs runs in $(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }') s wall; parallel exit $pcode (the number of failed runs; joblog.txt)"
+collect_batch "$out"
