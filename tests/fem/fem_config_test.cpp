@@ -55,6 +55,9 @@ TEST(FemConfigTest, RejectsBadValuesWithKeyAndValue) {
   config.cg_max_iterations = 0;
   EXPECT_EQ(ValidateMessage(config), "fem.cg_max_iterations must be >= 1, got 0");
   config = FemConfig{};
+  config.refactor_adopt_delay = 0;
+  EXPECT_EQ(ValidateMessage(config), "fem.refactor_adopt_delay must be >= 1 (steps), got 0");
+  config = FemConfig{};
   config.gravity.x() = std::numeric_limits<double>::infinity();
   EXPECT_NE(ValidateMessage(config).find("fem.gravity must be finite"), std::string::npos);
 }
