@@ -52,7 +52,10 @@
 //                   inverse of a true co-rotational system, it moves a rigid translation as a
 //                   rigid translation (no spurious momentum). Approximate by the rotation
 //                   since the last factorization; the fast path refreshes the factor when PCG
-//                   needs more than refactor_iterations, which bounds that rotation.
+//                   needs more than refactor_iterations, which bounds that rotation. With
+//                   FemConfig::background_refactor the factor is adopted refactor_adopt_delay
+//                   steps after the state it was made from: a compliance that lags the state
+//                   (see fem_config.h for when that destabilizes constraint forces).
 //
 // Threading: a FemSolver belongs to one thread (plus its own background worker when
 // FemConfig::background_refactor is set, the default on the PCG path). The worker only

@@ -18,6 +18,8 @@ TEST(FemConfigTest, DefaultsAreValidLiver) {
   EXPECT_NO_THROW(config.Validate());
   EXPECT_EQ(config.density, 1060.0);
   EXPECT_EQ(config.young_modulus, 5500.0);
+  EXPECT_FALSE(config.background_refactor);  // in-step refresh (see fem_config.h)
+  EXPECT_EQ(config.refactor_adopt_delay, 3);
 }
 
 std::string ValidateMessage(const FemConfig& config) {
