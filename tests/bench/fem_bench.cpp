@@ -5,7 +5,7 @@
 //       --benchmark_report_aggregates_only=true
 // Names: what/size (#nodes). LiverStep = fast path (PCG + cached warped factor) with the
 // refresh inside the step that asks for it (background_refactor = false),
-// LiverStepBackgroundRefresh = same with the deterministic background refresh (the default:
+// LiverStepBackgroundRefresh = same with the deterministic background refresh (background_refactor:
 // factorized on a worker, adopted refactor_adopt_delay = 3 steps later),
 // LiverStepRefactorEveryStep = direct CHOLMOD path (the naive baseline), Refactorize = one
 // numeric factorization, Solve = one solve with a factor (the floor of any step),

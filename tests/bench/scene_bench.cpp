@@ -11,7 +11,7 @@
 // p99_ms, max_ms; tests/bench/step_times.h) over 400 steps (8 s, 2 breathing cycles) with the
 // needle in the liver and advancing at 1 cm/s, wall clock, one sequence per repetition; refresh
 // InStep (background_refactor = false: the liver's factor refresh inside the step that asks) or
-// Background (the default: factorized on a worker, adopted 3 steps later); compliance Rest (the
+// Background (background_refactor = true: factorized on a worker, adopted 3 steps later); compliance Rest (the
 // scenario's, constant: a refresh costs no compliance columns) or Current (the liver's factor:
 // a swap invalidates the cached columns, recomputed in the swap step, swap_step_ms).
 
