@@ -35,6 +35,8 @@ void FemConfig::Validate() const {
   if (!(refactor_iteration_threshold >= 1))
     throw InputError(
         Str("fem.refactor_iteration_threshold must be >= 1, got ", refactor_iteration_threshold));
+  if (!(refactor_adopt_delay >= 1))
+    throw InputError(Str("fem.refactor_adopt_delay must be >= 1 (steps), got ", refactor_adopt_delay));
 }
 
 LameParameters CalcLameParameters(double young_modulus, double poisson_ratio) {

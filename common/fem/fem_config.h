@@ -40,10 +40,28 @@ struct FemConfig {
   /// 2660-node liver (tests/bench/fem_bench.cpp): ~2.7 iterations a step, a refresh every ~30
   /// steps; 6 gives ~4.4 iterations and no refresh, 2 refreshes every ~6 steps.
   int refactor_iteration_threshold = 3;
-  /// Refresh the cached factor in a worker thread (the second core). Results still satisfy the
-  /// tolerance, but which factor preconditions a step then depends on timing, so runs are only
-  /// reproducible to the tolerance. Off: refresh on the calling thread (deterministic).
+  /// Refresh the cached factor in a worker thread (the second core), deterministically: a
+  /// free-motion solve of step k that asks for a refresh hands this step's A to the worker, and
+  /// the new factor is adopted at the start of step k + refactor_adopt_delay (counted in
+  /// BeginStep calls), waiting for the worker there if it is not done. Which factor
+  /// preconditions each step therefore depends only on the simulation, never on thread timing:
+  /// runs are bit-identical whatever the load (fem_background_refresh_test checks it). No step
+  /// pays a factorization unless the worker is late. Off: refresh on the calling thread, inside
+  /// the step that asks for it (the factor is then adopted one step earlier; also deterministic).
+  /// Off by default: the free motion is as exact either way (PCG to the tolerance), but a
+  /// constraint compliance built on the factor (FemInverse::kReferenceFactor) then lags the
+  /// state by refactor_adopt_delay steps, and on a fast-deforming body this delayed feedback
+  /// destabilizes the constraint forces (fem_body_test's hanging 5.5 kPa cube: lambda
+  /// oscillates and grows to 10-30x the weight with a delay of 1-3, stays within 0.4-1.9x
+  /// with the in-step refresh). Safe where the compliance does not depend on the factor (the
+  /// patient liver's rest compliance, kCachedFactor, kCurrentSystem) or the body moves slowly.
   bool background_refactor = false;
+  /// Steps from the request of a background refresh to its adoption (>= 1). With 1 the factor
+  /// preconditions the same steps as a refresh on the calling thread (free steps are then
+  /// bit-identical to background_refactor = false). 3: on the 2660-node liver a factorization
+  /// takes ~30-60 ms, i.e. 2-3 steps of 20 ms; the older factor costs ~0.2 PCG iterations a
+  /// step more in the patient scene (tests/bench/scene_bench.cpp, DirectSceneSequence).
+  int refactor_adopt_delay = 3;
 
   /// Throws InputError with "fem.<key> must be ..., got <value>" for the first invalid field.
   void Validate() const;

@@ -1,6 +1,7 @@
 #include "common/fem/fem_solver.h"
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -37,14 +38,21 @@ struct FemSolver::Impl {
   Eigen::MatrixXd multi_in, multi_out, multi_rotated;
   Eigen::VectorXd zero_correction;  // 3n zeros for CommitStep without a correction
 
-  // background factorization (FemConfig::background_refactor)
+  // background factorization (FemConfig::background_refactor). Deterministic schedule: the
+  // request is made at step k from A_k, the result adopted at the start of step adopt_step =
+  // k + refactor_adopt_delay, whatever the worker's timing (the main thread waits there if
+  // needed). Ownership: background_matrix and spare belong to the worker from the request
+  // until job_done is seen under the mutex; background_rotations only to this thread.
   std::unique_ptr<CholmodFactor> spare;
   Eigen::SparseMatrix<double> background_matrix;
   std::vector<Eigen::Matrix3d> background_rotations;
   std::thread worker;
   std::mutex mutex;
   std::condition_variable wake;
-  bool job_pending = false, job_busy = false, job_done = false, job_ok = false, quit = false;
+  bool job_pending = false, job_done = false, job_ok = false, quit = false;  // under mutex
+  std::chrono::microseconds worker_delay{0};  // under mutex; test hook (a late worker)
+  std::int64_t step_index = -1;  // index of the current step (BeginStep calls - 1)
+  std::int64_t adopt_step = -1;  // step at which the job in flight is adopted; -1: none
   std::atomic<int> factorizations{0};
   std::uint64_t factor_version = 0;  // bumped when `active` is replaced or refactorized
 
@@ -108,8 +116,10 @@ struct FemSolver::Impl {
       wake.wait(lock, [this] { return job_pending || quit; });
       if (quit) return;
       job_pending = false;
+      const std::chrono::microseconds delay = worker_delay;
       lock.unlock();
-      // background_matrix and spare are owned by the worker while job_busy is set
+      if (delay.count() > 0) std::this_thread::sleep_for(delay);
+      // background_matrix and spare are owned by the worker until job_done is set
       const bool ok = spare->Factorize(background_matrix);
       ++factorizations;
       lock.lock();
@@ -260,13 +270,22 @@ struct FemSolver::Impl {
     factor_is_current = true;
   }
 
-  // adopt a finished background factorization; returns whether one was adopted
-  bool AdoptBackgroundFactor() {
-    if (!worker.joinable()) return false;
-    std::lock_guard<std::mutex> lock(mutex);
-    if (!job_done) return false;
+  // waits for the job in flight (if any) to finish; returns whether this thread had to wait
+  bool WaitForJob(std::unique_lock<std::mutex>& lock) {
+    const bool late = !job_done;
+    wake.wait(lock, [this] { return job_done; });
     job_done = false;
-    job_busy = false;
+    adopt_step = -1;
+    return late;
+  }
+
+  // at the start of step adopt_step: adopt the background factorization requested
+  // refactor_adopt_delay steps ago, waiting for it if needed; returns whether one was adopted
+  bool AdoptBackgroundFactor(bool& waited) {
+    waited = false;
+    if (adopt_step < 0 || step_index != adopt_step) return false;
+    std::unique_lock<std::mutex> lock(mutex);
+    waited = WaitForJob(lock);
     if (!job_ok) return false;  // a failed factorization is dropped, the old factor stays
     std::swap(active, spare);
     std::swap(reference_rotations, background_rotations);
@@ -274,12 +293,17 @@ struct FemSolver::Impl {
     return true;
   }
 
-  void RequestBackgroundFactor() {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (job_busy) return;
-      job_busy = true;
-    }
+  // drops the job in flight (waiting for the worker): a factor of this step replaces the old one
+  void DiscardBackgroundFactor() {
+    if (adopt_step < 0) return;
+    std::unique_lock<std::mutex> lock(mutex);
+    WaitForJob(lock);
+  }
+
+  // hands this step's A to the worker, to be adopted at step step_index + delay; returns
+  // false (and does nothing) while a job is in flight
+  bool RequestBackgroundFactor() {
+    if (adopt_step >= 0) return false;
     Assemble(background_matrix);
     background_rotations = nodal_rotations;
     {
@@ -287,6 +311,8 @@ struct FemSolver::Impl {
       job_pending = true;
     }
     wake.notify_all();
+    adopt_step = step_index + config.refactor_adopt_delay;
+    return true;
   }
 
   // gather the free rows of a 3n x k block into multi_in (3 #free x k)
@@ -356,6 +382,7 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
   if (state.external_forces.cols() != n || !state.external_forces.allFinite())
     throw InputError(Str("FemState::external_forces must be finite, 3 x ", n));
   stats_ = FemStepStats{};
+  ++s.step_index;
 
   // velocity the Dirichlet nodes must have at the end of the step
   s.full_w = state.v;
@@ -415,11 +442,13 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     const double b_norm = s.b.norm();
     stats_.relative_residual = b_norm > 0 ? (s.b - s.ap).norm() / b_norm : 0.0;
   } else {
-    stats_.factor_swapped = s.AdoptBackgroundFactor();
+    stats_.factor_swapped = s.AdoptBackgroundFactor(stats_.waited_for_worker);
     s.UpdateNodalRotations();
     stats_.cg_iterations = s.Pcg(s.b, s.dv, stats_.relative_residual);
     if (stats_.relative_residual > model.get_config().cg_relative_tolerance) {
-      // never truncated: solve with a fresh factor of this step's A
+      // never truncated: solve with a fresh factor of this step's A (an older one in flight
+      // is dropped)
+      s.DiscardBackgroundFactor();
       s.RefactorizeNow();
       stats_.refactorized = true;
       stats_.fell_back_to_direct = true;
@@ -428,7 +457,7 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
       stats_.relative_residual = (s.b - s.ap).norm() / s.b.norm();
     } else if (stats_.cg_iterations > model.get_config().refactor_iteration_threshold) {
       if (s.worker.joinable()) {
-        s.RequestBackgroundFactor();
+        stats_.refresh_requested = s.RequestBackgroundFactor();
       } else {
         s.RefactorizeNow();
         stats_.refactorized = true;
@@ -522,9 +551,14 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
 
 void FemSolver::WaitForBackgroundFactorization() {
   Impl& s = *impl_;
-  if (!s.worker.joinable()) return;
+  if (!s.worker.joinable() || s.adopt_step < 0) return;
   std::unique_lock<std::mutex> lock(s.mutex);
-  s.wake.wait(lock, [&s] { return !s.job_busy || s.job_done; });
+  s.wake.wait(lock, [&s] { return s.job_done; });  // job_done stays set: adopted on schedule
+}
+
+void FemSolver::SetWorkerDelayForTesting(std::chrono::microseconds delay) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->worker_delay = delay;
 }
 
 const Eigen::SparseMatrix<double>& FemSolver::CalcSystemMatrix() {

@@ -52,14 +52,22 @@
 //                   inverse of a true co-rotational system, it moves a rigid translation as a
 //                   rigid translation (no spurious momentum). Approximate by the rotation
 //                   since the last factorization; the fast path refreshes the factor when PCG
-//                   needs more than refactor_iterations, which bounds that rotation.
+//                   needs more than refactor_iterations, which bounds that rotation. With
+//                   FemConfig::background_refactor the factor is adopted refactor_adopt_delay
+//                   steps after the state it was made from: a compliance that lags the state
+//                   (see fem_config.h for when that destabilizes constraint forces).
 //
 // Threading: a FemSolver belongs to one thread (plus its own background worker when
-// FemConfig::background_refactor is set). BLAS threads: set OPENBLAS_NUM_THREADS=1 for
+// FemConfig::background_refactor is set, the default on the PCG path). The worker only
+// factorizes; what it factorizes (A of the step that asked) and when its factor is adopted
+// (refactor_adopt_delay steps later, at the start of BeginStep, waiting if necessary) follow
+// from the calls alone, so results do not depend on thread timing (given a BLAS that is
+// deterministic for a fixed thread count). BLAS threads: set OPENBLAS_NUM_THREADS=1 for
 // single-core timing.
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <chrono>
 #include <cstdint>
 #include <memory>
 
@@ -77,6 +85,10 @@ struct FemStepStats {
   double relative_residual = 0;   ///< ||b - A dv|| / ||b|| of the free-motion solve (true residual)
   bool refactorized = false;      ///< a numeric factorization ran on this thread in this step
   bool factor_swapped = false;    ///< a background factorization was adopted at this step
+  bool refresh_requested = false;  ///< this step's A was handed to the background worker
+  /// The adoption at this step had to wait for the worker (the only field that depends on
+  /// timing; nothing else does).
+  bool waited_for_worker = false;
   bool fell_back_to_direct = false;  ///< PCG hit cg_max_iterations; solved with a fresh factor
   int inverted_tets = 0;          ///< tets with det F <= kPolarSvdThreshold at the step's x
 };
@@ -116,8 +128,12 @@ class FemSolver {
   /// Ends the step without a correction.
   void CommitStep(FemState& state);
 
-  /// Waits for a running background factorization (if any) and adopts it at the next BeginStep.
+  /// Waits for a running background factorization (if any) to finish. It is still adopted at
+  /// its scheduled step (FemConfig::refactor_adopt_delay steps after the request), not earlier.
   void WaitForBackgroundFactorization();
+  /// Test hook: the worker sleeps this long before each factorization (simulates a loaded or
+  /// slow second core; results must not change).
+  void SetWorkerDelayForTesting(std::chrono::microseconds delay);
 
   const FemModel& get_model() const { return model_; }
   const FemStepStats& get_last_stats() const { return stats_; }

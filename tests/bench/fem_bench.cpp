@@ -3,10 +3,19 @@
 // gravity, after 1 s of simulated breathing (moderate deformation). Measure on one core:
 //   OPENBLAS_NUM_THREADS=1 taskset -c 0 fem_bench --benchmark_repetitions=5
 //       --benchmark_report_aggregates_only=true
-// Names: what/size (#nodes). LiverStep = default fast path (PCG + cached warped factor,
-// synchronous refresh), LiverStepBackgroundRefresh = same with the refresh on the second core,
-// LiverStepRefactorEveryStep = direct CHOLMOD path, Refactorize = one numeric factorization,
-// Solve = one solve with a factor, ApplyInverse40 = A^-1 on 40 sparse constraint columns.
+// Names: what/size (#nodes). LiverStep = fast path (PCG + cached warped factor) with the
+// refresh inside the step that asks for it (background_refactor = false),
+// LiverStepBackgroundRefresh = same with the deterministic background refresh (background_refactor:
+// factorized on a worker, adopted refactor_adopt_delay = 3 steps later),
+// LiverStepRefactorEveryStep = direct CHOLMOD path (the naive baseline), Refactorize = one
+// numeric factorization, Solve = one solve with a factor (the floor of any step),
+// ApplyInverse40 = A^-1 on 40 sparse constraint columns.
+// LiverStepSequence/<refresh>/size: the distribution of the step time over a sequence of 600
+// breathing steps from rest (12 s, 3 cycles; 200 for the direct path), wall clock, one sequence per
+// repetition: counters p50_ms, p90_ms, p99_ms, max_ms (tests/bench/step_times.h), the steps
+// that adopt a background factor (swap_step_ms) or hand one to the worker (request_step_ms).
+// The worker needs a second core to be off the critical path: on one core (taskset -c 1) it
+// time-shares with the steps it overlaps.
 
 #include <benchmark/benchmark.h>
 
@@ -20,6 +29,7 @@
 #include "common/fem/cholmod_factor.h"
 #include "common/fem/fem_solver.h"
 #include "common/mesh/gmsh_reader.h"
+#include "tests/bench/step_times.h"
 
 namespace nsim {
 namespace {
@@ -61,17 +71,19 @@ struct Fixture {
   std::unique_ptr<FemSolver> solver;
   std::unique_ptr<FemState> state;
 
-  Fixture(int nodes, FemLinearSolver kind, bool background) {
+  Fixture(int nodes, FemLinearSolver kind, bool background, int adopt_delay = 3,
+          int warm_up_steps = 50) {
     const LiverScene scene = MakeScene(MeshPath(nodes));
     FemConfig config;  // liver: E 5.5 kPa, nu 0.45, rho 1060, h 20 ms
     config.rayleigh_mass = 0.1;
     config.rayleigh_stiffness = 0.01;
     config.linear_solver = kind;
     config.background_refactor = background;
+    config.refactor_adopt_delay = adopt_delay;
     model = std::make_unique<FemModel>(scene.mesh, config, scene.boundary);
     solver = std::make_unique<FemSolver>(*model);
     state = std::make_unique<FemState>(*model);
-    for (int step = 0; step < 50; ++step) Step();  // 1 s of breathing
+    for (int step = 0; step < warm_up_steps; ++step) Step();  // 1 s of breathing
   }
   FemStepStats Step() {
     Breathe(*model, *state, state->time + model->get_config().time_step);
@@ -93,6 +105,35 @@ void RunSteps(benchmark::State& bench, int nodes, FemLinearSolver kind, bool bac
   bench.counters["refactor_per_step"] = refactorizations / steps;
   bench.counters["bg_swaps_per_step"] = swaps / steps;
   bench.counters["dofs"] = 3.0 * fixture.model->num_free_nodes();
+}
+
+// the step-time distribution over a long breathing sequence (Iterations = steps)
+void RunSequence(benchmark::State& bench, int nodes, FemLinearSolver kind, bool background,
+                 int adopt_delay = 3) {
+  // from rest: the first second needs the refreshes (~5); after it the warm-started PCG needs
+  // ~2.5 iterations a step and the breathing alone asks for none
+  Fixture fixture(nodes, kind, background, adopt_delay, 0);
+  StepTimes times(static_cast<size_t>(bench.max_iterations));
+  std::vector<double> swap_ms, request_ms;
+  double iterations = 0, refactorizations = 0, swaps = 0, waits = 0, steps = 0;
+  for (auto _ : bench) {
+    const FemStepStats stats = times.Time([&] { return fixture.Step(); });
+    iterations += stats.cg_iterations;
+    refactorizations += stats.refactorized;
+    swaps += stats.factor_swapped;
+    waits += stats.waited_for_worker;
+    if (stats.factor_swapped) swap_ms.push_back(times.last());
+    if (stats.refresh_requested) request_ms.push_back(times.last());
+    steps += 1;
+  }
+  fixture.solver->WaitForBackgroundFactorization();
+  times.Report(bench);
+  bench.counters["cg_iterations"] = iterations / steps;
+  bench.counters["refactor_per_step"] = refactorizations / steps;
+  bench.counters["bg_swaps_per_step"] = swaps / steps;
+  bench.counters["waits_per_swap"] = swaps > 0 ? waits / swaps : 0.0;
+  bench.counters["swap_step_ms"] = StepTimes::Percentile(swap_ms, 0.5);
+  bench.counters["request_step_ms"] = StepTimes::Percentile(request_ms, 0.5);
 }
 
 void Refactorize(benchmark::State& bench, int nodes) {
@@ -156,6 +197,28 @@ int main(int argc, char** argv) {
                                  [nodes](benchmark::State& s) {
                                    RunSteps(s, nodes, FemLinearSolver::kPcgCachedFactor, true);
                                  })->Unit(benchmark::kMillisecond);
+    if (nodes == 2660) {
+      benchmark::RegisterBenchmark(("LiverStepSequence/InStepRefresh/" + n).c_str(),
+                                   [nodes](benchmark::State& s) {
+                                     RunSequence(s, nodes, FemLinearSolver::kPcgCachedFactor, false);
+                                   })
+          ->Unit(benchmark::kMillisecond)->Iterations(600)->UseRealTime();
+      for (int delay : {3, 1}) {
+        benchmark::RegisterBenchmark(
+            ("LiverStepSequence/BackgroundRefresh" +
+             std::string(delay == 3 ? "" : "Delay" + std::to_string(delay)) + "/" + n)
+                .c_str(),
+            [nodes, delay](benchmark::State& s) {
+              RunSequence(s, nodes, FemLinearSolver::kPcgCachedFactor, true, delay);
+            })
+            ->Unit(benchmark::kMillisecond)->Iterations(600)->UseRealTime();
+      }
+      benchmark::RegisterBenchmark(("LiverStepSequence/RefactorEveryStep/" + n).c_str(),
+                                   [nodes](benchmark::State& s) {
+                                     RunSequence(s, nodes, FemLinearSolver::kDirect, false);
+                                   })
+          ->Unit(benchmark::kMillisecond)->Iterations(200)->UseRealTime();
+    }
     if (nodes <= 2660) {
       benchmark::RegisterBenchmark(("LiverStepRefactorEveryStep/" + n).c_str(),
                                    [nodes](benchmark::State& s) {

@@ -7,6 +7,13 @@
 //       --benchmark_report_aggregates_only=true
 // Names: what/size (#liver nodes). DirectSceneStep = needle in the liver; DirectSceneStepFree =
 // before the needle reaches the skin (breathing and rib contacts only).
+// DirectSceneSequence/<refresh>/<compliance>/size: the step-time distribution (p50_ms, p90_ms,
+// p99_ms, max_ms; tests/bench/step_times.h) over 400 steps (8 s, 2 breathing cycles) with the
+// needle in the liver and advancing at 1 cm/s, wall clock, one sequence per repetition; refresh
+// InStep (background_refactor = false: the liver's factor refresh inside the step that asks) or
+// Background (background_refactor = true: factorized on a worker, adopted 3 steps later); compliance Rest (the
+// scenario's, constant: a refresh costs no compliance columns) or Current (the liver's factor:
+// a swap invalidates the cached columns, recomputed in the swap step, swap_step_ms).
 
 #include <benchmark/benchmark.h>
 
@@ -19,6 +26,7 @@
 #include "common/scene/patient_scene.h"
 #include "common/scene/robot_driver.h"
 #include "direct_sim/scenario_loader.h"
+#include "tests/bench/step_times.h"
 
 namespace nsim {
 namespace {
@@ -29,10 +37,13 @@ struct Fixture {
   std::unique_ptr<PatientScene> scene;
   double s = 0.0;  // tip travel along the plan (m)
 
-  explicit Fixture(int nodes) {
+  // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it
+  explicit Fixture(int nodes, int background = -1, int rest_compliance = -1) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
+    if (background >= 0) scenario.scene.liver.background_refactor = background == 1;
+    if (rest_compliance >= 0) scenario.scene.liver_rest_compliance = rest_compliance == 1;
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
                              scenario.insertion.approach_distance);
@@ -89,7 +100,61 @@ void BM_DirectSceneStepFree(benchmark::State& state) {
 }
 BENCHMARK(BM_DirectSceneStepFree)->Arg(2660)->Unit(benchmark::kMillisecond)->Iterations(100);
 
+// the step-time distribution over 400 steps with the needle in the liver (Iterations = steps)
+void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance) {
+  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0);
+  while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
+         f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
+    f.Step();
+  StepTimes times(static_cast<size_t>(state.max_iterations));
+  std::vector<double> swap_ms, request_ms;
+  double swaps = 0, waits = 0, refactorizations = 0, cg = 0, steps = 0, rows = 0;
+  for (auto _ : state) {
+    const SceneStepReport report = times.Time([&] {
+      f.s = std::min(f.s + 0.01 * f.scenario.scene.time_step, f.plan.total_travel());
+      return f.scene->Step(f.plan.CalcFlangePose(f.s));
+    });
+    const FemStepStats& liver = report.liver_stats;
+    swaps += liver.factor_swapped;
+    waits += liver.waited_for_worker;
+    refactorizations += liver.refactorized;
+    cg += liver.cg_iterations;
+    rows += report.num_rows;
+    if (liver.factor_swapped) swap_ms.push_back(times.last());
+    if (liver.refresh_requested || liver.refactorized) request_ms.push_back(times.last());
+    steps += 1;
+  }
+  times.Report(state);
+  state.counters["liver_refactor_per_step"] = refactorizations / steps;
+  state.counters["bg_swaps_per_step"] = swaps / steps;
+  state.counters["waits_per_swap"] = swaps > 0 ? waits / swaps : 0.0;
+  state.counters["swap_step_ms"] = StepTimes::Percentile(swap_ms, 0.5);
+  state.counters["request_step_ms"] = StepTimes::Percentile(request_ms, 0.5);
+  state.counters["cg_iterations"] = cg / steps;
+  state.counters["rows"] = rows / steps;
+  state.counters["liver_depth_mm"] = 1e3 * f.scene->GetTissueStatus(kLiverTissue).depth;
+}
+
+void RegisterSequences() {
+  for (bool rest : {true, false})
+    for (bool background : {false, true}) {
+      const std::string name = std::string("DirectSceneSequence/") +
+                               (background ? "Background" : "InStep") + "/" +
+                               (rest ? "Rest" : "Current") + "/2660";
+      benchmark::RegisterBenchmark(name.c_str(), [background, rest](benchmark::State& s) {
+        DirectSceneSequence(s, background, rest);
+      })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+    }
+}
+
 }  // namespace
 }  // namespace nsim
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  nsim::RegisterSequences();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

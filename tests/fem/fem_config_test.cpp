@@ -18,6 +18,8 @@ TEST(FemConfigTest, DefaultsAreValidLiver) {
   EXPECT_NO_THROW(config.Validate());
   EXPECT_EQ(config.density, 1060.0);
   EXPECT_EQ(config.young_modulus, 5500.0);
+  EXPECT_FALSE(config.background_refactor);  // in-step refresh (see fem_config.h)
+  EXPECT_EQ(config.refactor_adopt_delay, 3);
 }
 
 std::string ValidateMessage(const FemConfig& config) {
@@ -54,6 +56,9 @@ TEST(FemConfigTest, RejectsBadValuesWithKeyAndValue) {
   config = FemConfig{};
   config.cg_max_iterations = 0;
   EXPECT_EQ(ValidateMessage(config), "fem.cg_max_iterations must be >= 1, got 0");
+  config = FemConfig{};
+  config.refactor_adopt_delay = 0;
+  EXPECT_EQ(ValidateMessage(config), "fem.refactor_adopt_delay must be >= 1 (steps), got 0");
   config = FemConfig{};
   config.gravity.x() = std::numeric_limits<double>::infinity();
   EXPECT_NE(ValidateMessage(config).find("fem.gravity must be finite"), std::string::npos);

@@ -14,7 +14,7 @@
 namespace nsim {
 namespace {
 
-void RunGuarded(FemLinearSolver kind) {
+void RunGuarded(FemLinearSolver kind, bool background_refactor = false) {
   const TetMesh mesh = MakeBoxTetMesh({6, 5, 5}, {0.1, 0.08, 0.06});
   std::vector<int> bottom, top;
   for (int i = 0; i < mesh.num_nodes(); ++i) {
@@ -24,6 +24,7 @@ void RunGuarded(FemLinearSolver kind) {
   FemConfig config;
   config.linear_solver = kind;
   config.refactor_iteration_threshold = 2;  // exercise synchronous refactorization too
+  config.background_refactor = background_refactor;  // or the adoption of background factors
   const FemModel model(mesh, config, {bottom, top});
   FemSolver solver(model);
   FemState state(model);
@@ -40,18 +41,27 @@ void RunGuarded(FemLinearSolver kind) {
     solver.CommitStep(state);
   };
   step(0);  // warm-up: sizes the ApplyInverse buffers and CHOLMOD workspaces
-  int refactorized = 0;
+  int refactorized = 0, swapped = 0;
   Eigen::internal::set_is_malloc_allowed(false);
   for (int k = 1; k <= 10; ++k) {
     step(k);
     refactorized += solver.get_last_stats().refactorized;
+    swapped += solver.get_last_stats().factor_swapped;
   }
   Eigen::internal::set_is_malloc_allowed(true);
   EXPECT_TRUE(state.x.allFinite());
-  EXPECT_GT(refactorized, 0);
+  if (background_refactor) {
+    EXPECT_EQ(refactorized, 0);  // no factorization on this thread: requests and adoptions only
+    EXPECT_GT(swapped, 0);
+  } else {
+    EXPECT_GT(refactorized, 0);
+  }
 }
 
 TEST(FemSolverNoMallocTest, PcgStepDoesNotAllocate) { RunGuarded(FemLinearSolver::kPcgCachedFactor); }
+TEST(FemSolverNoMallocTest, PcgStepWithBackgroundRefreshDoesNotAllocate) {
+  RunGuarded(FemLinearSolver::kPcgCachedFactor, true);
+}
 TEST(FemSolverNoMallocTest, DirectStepDoesNotAllocate) { RunGuarded(FemLinearSolver::kDirect); }
 
 }  // namespace

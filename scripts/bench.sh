@@ -1,0 +1,107 @@
+#!/usr/bin/env bash
+# Builds the benchmarks (Release) and runs every benchmark binary single-threaded on one core,
+# with repetitions; writes results/bench_<date>/bench.json (the runs' Google Benchmark JSON
+# merged) and bench.md (a table: median, p99 where a benchmark reports a step distribution, and
+# the ratios to the baselines of the same run: one CHOLMOD solve (Solve/<size>, the floor of any
+# step) and refactorize-every-step (LiverStepRefactorEveryStep/<size>, the naive step); with
+# --baseline DIR also the same benchmarks from another build and the ratio to them).
+#
+#   scripts/bench.sh [--reps N] [--filter REGEX] [--baseline BUILD_DIR] [--cpu C]
+#                    [--two-cores LIST|none] [--out DIR] [--no-build]
+#
+#   --reps N          repetitions of each benchmark (default 5); aggregates: median (and mean,
+#                     stddev, cv) over the repetitions
+#   --filter REGEX    only benchmarks matching REGEX (Google Benchmark --benchmark_filter);
+#                     the floor and naive baselines are always run for the sizes selected
+#   --baseline DIR    a second build directory (e.g. of the previous release): its bench/
+#                     binaries run the same benchmarks, in the same session, as another column
+#   --cpu C           the core everything runs on (taskset -c C; default 1)
+#   --two-cores LIST  also run the step-sequence benchmarks (*Sequence*) on these cores (default
+#                     0,1): the background factor refresh needs a second core to be off the
+#                     critical path; "none" skips this pass
+#   --out DIR         output directory (default results/bench_<date>)
+#   --no-build        use the binaries as they are
+# Environment: NSIM_BUILD_DIR (default build-bench/), NSIM_JOBS (build jobs, default 2).
+# The machine should be quiet: the numbers are wall times.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${NSIM_BUILD_DIR:-$root/build-bench}"
+reps=5
+filter=""
+baseline=""
+cpu=1
+two_cores="0,1"
+out=""
+do_build=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --reps) reps="$2"; shift 2 ;;
+    --filter) filter="$2"; shift 2 ;;
+    --baseline) baseline="$(cd "$2" && pwd)"; shift 2 ;;
+    --cpu) cpu="$2"; shift 2 ;;
+    --two-cores) two_cores="$2"; shift 2 ;;
+    --out) out="$2"; shift 2 ;;
+    --no-build) do_build=0; shift ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    *) echo "bench.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
+  esac
+done
+python=/usr/bin/python3
+[ -x "$python" ] || python="$(command -v python3)"
+
+if [ "$do_build" = 1 ]; then
+  launcher=()
+  command -v ccache >/dev/null &&
+    launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+  generator=()
+  command -v ninja >/dev/null && generator=(-G Ninja)
+  if [ ! -f "$build/CMakeCache.txt" ]; then
+    cmake -S "$root" -B "$build" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release \
+      -DNSIM_BUILD_BENCHMARKS=ON "${launcher[@]}"
+  fi
+  targets=()
+  for f in "$root"/tests/bench/*_bench.cpp; do targets+=("$(basename "$f" .cpp)"); done
+  cmake --build "$build" -j "${NSIM_JOBS:-2}" --target "${targets[@]}"
+fi
+[ -d "$build/bench" ] || { echo "bench.sh: no $build/bench (build first)" >&2; exit 1; }
+
+out="${out:-$root/results/bench_$(date +%Y%m%d-%H%M%S)}"
+mkdir -p "$out/raw"
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 OMP_THREAD_LIMIT=1
+
+# the floor and the naive step of the 2660-node liver (the size of the scene benchmarks) are
+# always measured with the rest
+always='Solve/2660$|LiverStepRefactorEveryStep/2660$'
+selection="${filter:+($filter)|$always}"
+
+# run <label> <build_dir> <cpus> <filter> [sequences-only]: every binary of <build_dir>/bench
+run() {
+  local label="$1" dir="$2" cpus="$3" sel="$4" only_sequences="${5:-}" bin name names bin_sel
+  for bin in "$dir"/bench/*_bench; do
+    [ -x "$bin" ] || continue
+    name="$(basename "$bin")"
+    # the benchmarks of this binary in the selection (skip the binary if none)
+    names="$("$bin" --benchmark_list_tests=true ${sel:+"--benchmark_filter=$sel"} 2>/dev/null ||
+      true)"
+    [ -n "$only_sequences" ] && names="$(grep Sequence <<<"$names" || true)"
+    [ -n "$names" ] || continue
+    bin_sel="$sel"
+    [ -n "$only_sequences" ] && bin_sel="^($(paste -sd'|' <<<"$names"))\$"
+    local args=(--benchmark_repetitions="$reps" --benchmark_report_aggregates_only=true
+                --benchmark_out="$out/raw/${label}__${name}.json" --benchmark_out_format=json)
+    [ -n "$bin_sel" ] && args+=(--benchmark_filter="$bin_sel")
+    echo "== $label: $name on cpu $cpus" >&2
+    taskset -c "$cpus" "$bin" "${args[@]}" >&2 || echo "bench.sh: $name failed (exit $?)" >&2
+  done
+}
+
+run current "$build" "$cpu" "$selection"
+[ -n "$baseline" ] && run baseline "$baseline" "$cpu" "$selection"
+if [ "$two_cores" != none ]; then
+  run current-2cores "$build" "$two_cores" "$filter" sequences
+  [ -n "$baseline" ] && run baseline-2cores "$baseline" "$two_cores" "$filter" sequences
+fi
+
+"$python" "$root/scripts/bench_report.py" --cpu "$cpu" --two-cores "$two_cores" \
+  --build "$build" ${baseline:+--baseline "$baseline"} "$out"
+echo "bench.sh: wrote $out/bench.json and $out/bench.md" >&2

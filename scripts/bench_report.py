@@ -1,0 +1,180 @@
+#!/usr/bin/python3
+"""Merges the Google Benchmark JSON files of scripts/bench.sh (OUT/raw/<label>__<binary>.json)
+into OUT/bench.json and writes OUT/bench.md: per benchmark the median over the repetitions of
+the time per iteration (wall) and, for step-sequence benchmarks, of the per-step p50/p99/max
+counters, beside the baselines of the same run: the floor (one CHOLMOD solve, Solve/<size>) and
+the naive step (refactorize every step, LiverStepRefactorEveryStep/<size>), and the baseline
+build's figures when one was run. Standard library only."""
+
+import argparse
+import glob
+import json
+import os
+import re
+import sys
+
+TO_MS = {"ns": 1e-6, "us": 1e-3, "ms": 1.0, "s": 1e3}
+LABELS = ["current", "baseline", "current-2cores", "baseline-2cores"]
+
+
+def clean_name(run_name):
+    """Drops Google Benchmark's suffixes (/iterations:N, /real_time, ...)."""
+    return re.sub(r"/(iterations:\d+|real_time|manual_time|min_time:[^/]+|repeats:\d+)", "",
+                  run_name)
+
+
+def load(out):
+    runs = []
+    for path in sorted(glob.glob(os.path.join(out, "raw", "*.json"))):
+        label, binary = os.path.basename(path)[:-len(".json")].split("__", 1)
+        try:
+            with open(path) as f:
+                data = json.load(f)
+        except (OSError, ValueError) as e:
+            print(f"bench_report: skipping {path}: {e}", file=sys.stderr)
+            continue
+        runs.append({"label": label, "binary": binary, "context": data.get("context", {}),
+                     "benchmarks": data.get("benchmarks", [])})
+    return runs
+
+
+def medians(runs):
+    """{label: {name: {"binary", "ms", "p50", "p99", "max", "reps"}}} from the median aggregates
+    (or the single run when there were no repetitions)."""
+    table = {}
+    for run in runs:
+        for b in run["benchmarks"]:
+            aggregate = b.get("aggregate_name")
+            if b.get("run_type") == "aggregate" and aggregate != "median":
+                continue
+            if b.get("run_type") == "iteration" and any(
+                    x.get("aggregate_name") == "median" and x.get("run_name") == b.get("run_name")
+                    for x in run["benchmarks"]):
+                continue
+            name = clean_name(b.get("run_name", b["name"]))
+            unit = TO_MS[b.get("time_unit", "ns")]
+            entry = {"binary": run["binary"], "ms": b["real_time"] * unit,
+                     "reps": b.get("repetitions", 1)}
+            for counter in ("p50_ms", "p99_ms", "max_ms", "over_20ms"):
+                if counter in b:
+                    entry[counter] = b[counter]
+            table.setdefault(run["label"], {})[name] = entry
+    return table
+
+
+def size_of(name):
+    m = re.search(r"/(\d{3,6})(?=/|$)", name)
+    return m.group(1) if m else None
+
+
+def fmt_ms(ms):
+    if ms is None:
+        return "–"
+    if ms < 1e-3:
+        return f"{ms * 1e6:.3g} ns"
+    if ms < 1.0:
+        return f"{ms * 1e3:.3g} us"
+    if ms < 1e3:
+        return f"{ms:.3g} ms"
+    return f"{ms / 1e3:.3g} s"
+
+
+def fmt_ratio(x):
+    return "–" if x is None else f"{x:.3g}x"
+
+
+def ratio(a, b):
+    return a / b if a is not None and b else None
+
+
+def write_markdown(out, table, args, contexts):
+    current = table.get("current", {})
+    lines = []
+    ctx = contexts[0] if contexts else {}
+    lines.append(f"# Benchmarks {os.path.basename(os.path.normpath(out))}")
+    lines.append("")
+    lines.append(f"Host {ctx.get('host_name', '?')}, {ctx.get('num_cpus', '?')} CPUs at "
+                 f"{ctx.get('mhz_per_cpu', '?')} MHz, load average "
+                 f"{ctx.get('load_avg', '?')} at the start; OPENBLAS_NUM_THREADS=1 "
+                 f"OMP_NUM_THREADS=1 OMP_THREAD_LIMIT=1, taskset -c {args.cpu}. Build "
+                 f"`{args.build}`" + (f", baseline `{args.baseline}`" if args.baseline else "") +
+                 ".")
+    lines.append("")
+    lines.append("Times: median over the repetitions of the wall time per iteration (per step "
+                 "for the step benchmarks). p50 / p99 / max step: medians over the repetitions "
+                 "of each sequence's per-step percentiles (step-sequence benchmarks only). "
+                 "`x floor` = time / one CHOLMOD solve (`Solve/<size>`); `naive /` = "
+                 "refactorize-every-step (`LiverStepRefactorEveryStep/<size>`) / time (speed-up "
+                 "over the naive step), both measured in this run.")
+    lines.append("")
+
+    def section(title, label, baseline_label, floors_from):
+        rows = table.get(label, {})
+        if not rows:
+            return
+        base = table.get(baseline_label, {}) if baseline_label else {}
+        lines.append(f"## {title}")
+        lines.append("")
+        header = ["benchmark", "binary", "median", "p50 step", "p99 step", "max step",
+                  "x floor", "p99 x floor", "naive / median", "naive / p99"]
+        if base:
+            header += ["baseline median", "baseline p99", "median / baseline",
+                       "p99 / baseline"]
+        lines.append("| " + " | ".join(header) + " |")
+        lines.append("|" + "---|" * len(header))
+        for name in sorted(rows, key=lambda n: (rows[n]["binary"], n)):
+            r = rows[name]
+            size = size_of(name)
+            floor = floors_from.get(f"Solve/{size}", {}).get("ms") if size else None
+            naive = floors_from.get(f"LiverStepRefactorEveryStep/{size}", {}).get("ms") \
+                if size else None
+            p99 = r.get("p99_ms")
+            cells = [f"`{name}`", r["binary"], fmt_ms(r["ms"]), fmt_ms(r.get("p50_ms")),
+                     fmt_ms(p99), fmt_ms(r.get("max_ms")), fmt_ratio(ratio(r["ms"], floor)),
+                     fmt_ratio(ratio(p99, floor)), fmt_ratio(ratio(naive, r["ms"])),
+                     fmt_ratio(ratio(naive, p99))]
+            if base:
+                b = base.get(name, {})
+                cells += [fmt_ms(b.get("ms")), fmt_ms(b.get("p99_ms")),
+                          fmt_ratio(ratio(r["ms"], b.get("ms"))),
+                          fmt_ratio(ratio(p99, b.get("p99_ms")))]
+            lines.append("| " + " | ".join(cells) + " |")
+        lines.append("")
+
+    section(f"One core (taskset -c {args.cpu})", "current",
+            "baseline" if args.baseline else None, current)
+    if args.two_cores != "none":
+        section(f"Step sequences on two cores (taskset -c {args.two_cores}; the background "
+                "refresh's worker on the second)", "current-2cores",
+                "baseline-2cores" if args.baseline else None, current)
+    with open(os.path.join(out, "bench.md"), "w") as f:
+        f.write("\n".join(lines))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("out")
+    parser.add_argument("--cpu", default="1")
+    parser.add_argument("--two-cores", default="0,1")
+    parser.add_argument("--build", default="")
+    parser.add_argument("--baseline", default="")
+    args = parser.parse_args()
+    runs = load(args.out)
+    if not runs:
+        sys.exit(f"bench_report: no results in {args.out}/raw")
+    merged = {
+        "context": runs[0]["context"],
+        "nsim": {"cpu": args.cpu, "two_cores": args.two_cores, "build": args.build,
+                 "baseline": args.baseline,
+                 "runs": [{"label": r["label"], "binary": r["binary"], "context": r["context"]}
+                          for r in runs]},
+        "benchmarks": [dict(b, nsim_label=r["label"], nsim_binary=r["binary"])
+                       for r in runs for b in r["benchmarks"]],
+    }
+    with open(os.path.join(args.out, "bench.json"), "w") as f:
+        json.dump(merged, f, indent=1)
+    write_markdown(args.out, medians(runs), args, [r["context"] for r in runs])
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,222 @@
+// The background refresh of the cached factor (FemConfig::background_refactor) is
+// deterministic: the step that asks for a refresh, the matrix factorized (that step's A) and the
+// step at which the new factor is adopted (refactor_adopt_delay steps later) follow from the
+// simulation alone. Checked on the breathing 2660-node liver (the benchmark's scene,
+// tests/bench/fem_bench.cpp) by exact comparison of every node position at every step between
+// runs whose worker is early, late (sleeps before factorizing, so the main thread must wait) or
+// on time, and against the in-step refresh (same factors one step earlier: bit-identical with a
+// delay of 1, within the PCG tolerance with 3) and the direct solver (refactorize every step).
+// Nothing here is timed.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/fem/fem_solver.h"
+#include "common/mesh/gmsh_reader.h"
+
+namespace nsim {
+namespace {
+
+using std::chrono::milliseconds;
+
+constexpr int kSteps = 200;  // 4 s: one breathing cycle
+
+struct Liver {
+  TetMesh mesh;
+  FemBoundary boundary;
+};
+
+// as fem_bench: superior 15 % of the height prescribed (diaphragm), inferior 5 % fixed
+const Liver& GetLiver() {
+  static const Liver liver = [] {
+    Liver l;
+    l.mesh = ReadGmshMesh(std::string(NSIM_SOURCE_DIR) + "/configs/meshes/liver_2660.msh");
+    const double z_min = l.mesh.X.row(2).minCoeff(), z_max = l.mesh.X.row(2).maxCoeff();
+    const double height = z_max - z_min;
+    for (int i = 0; i < l.mesh.num_nodes(); ++i) {
+      const double z = l.mesh.X(2, i);
+      if (z > z_max - 0.15 * height) l.boundary.prescribed_nodes.push_back(i);
+      else if (z < z_min + 0.05 * height) l.boundary.fixed_nodes.push_back(i);
+    }
+    return l;
+  }();
+  return liver;
+}
+
+FemConfig LiverConfig() {
+  FemConfig config;  // liver defaults: E 5.5 kPa, nu 0.45, 1060 kg/m^3, h 20 ms, PCG 1e-6
+  config.rayleigh_mass = 0.1;
+  config.rayleigh_stiffness = 0.01;
+  config.background_refactor = true;
+  config.refactor_adopt_delay = 3;
+  return config;
+}
+
+// one simulation of the breathing liver: 12 mm SI, 4 mm AP, 4 s period, cos^2
+struct LiverRun {
+  std::unique_ptr<FemModel> model;
+  std::unique_ptr<FemSolver> solver;
+  std::unique_ptr<FemState> state;
+  int requests = 0, swaps = 0, waits = 0, in_step_factorizations = 0;
+  std::vector<int> request_steps, swap_steps;
+
+  explicit LiverRun(const FemConfig& config) {
+    const Liver& liver = GetLiver();
+    model = std::make_unique<FemModel>(liver.mesh, config, liver.boundary);
+    solver = std::make_unique<FemSolver>(*model);
+    state = std::make_unique<FemState>(*model);
+  }
+  FemStepStats Step(int step) {
+    const double t = state->time + model->get_config().time_step;
+    const double phase = std::pow(std::cos(M_PI * t / 4.0), 2);
+    const Eigen::Vector3d offset(0.0, -0.004 * (1 - phase), -0.012 * (1 - phase));
+    const auto& nodes = model->get_prescribed_nodes();
+    for (size_t k = 0; k < nodes.size(); ++k)
+      state->prescribed_positions.col(k) = model->get_rest_positions().col(nodes[k]) + offset;
+    const FemStepStats stats = solver->Step(*state);
+    EXPECT_LE(stats.relative_residual, model->get_config().cg_relative_tolerance) << step;
+    if (stats.refresh_requested) request_steps.push_back(step);
+    if (stats.factor_swapped) swap_steps.push_back(step);
+    requests += stats.refresh_requested;
+    swaps += stats.factor_swapped;
+    waits += stats.waited_for_worker;
+    in_step_factorizations += stats.refactorized;
+    return stats;
+  }
+  double Displacement() const {
+    return (state->x - model->get_rest_positions()).cwiseAbs().maxCoeff();
+  }
+};
+
+bool Identical(const LiverRun& a, const LiverRun& b) {
+  return (a.state->x.array() == b.state->x.array()).all() &&
+         (a.state->v.array() == b.state->v.array()).all();
+}
+
+// early, late and free-running workers give the same bits at every step
+TEST(FemBackgroundRefreshTest, BitIdenticalWhateverTheWorkerTiming) {
+  const FemConfig config = LiverConfig();
+  LiverRun free_running(config), again(config), early(config), late(config);
+  // the late worker sleeps 300 ms before each factorization: it is not done after 3 steps, so
+  // the adopting step waits for it
+  late.solver->SetWorkerDelayForTesting(milliseconds(300));
+  bool all_identical = true;
+  for (int step = 0; step < kSteps; ++step) {
+    const FemStepStats a = free_running.Step(step);
+    const FemStepStats b = again.Step(step);
+    const FemStepStats c = early.Step(step);
+    early.solver->WaitForBackgroundFactorization();  // done long before it is adopted
+    const FemStepStats d = late.Step(step);
+    for (const FemStepStats* s : {&b, &c, &d}) {
+      EXPECT_EQ(s->cg_iterations, a.cg_iterations) << step;
+      EXPECT_EQ(s->refresh_requested, a.refresh_requested) << step;
+      EXPECT_EQ(s->factor_swapped, a.factor_swapped) << step;
+    }
+    const bool identical =
+        Identical(free_running, again) && Identical(free_running, early) && Identical(free_running, late);
+    EXPECT_TRUE(identical) << "states differ at step " << step;
+    all_identical = all_identical && identical;
+    if (!identical) break;
+  }
+  std::printf("background refresh, %d steps: %d requests, %d swaps (steps", kSteps,
+              free_running.requests, free_running.swaps);
+  for (int s : free_running.swap_steps) std::printf(" %d", s);
+  std::printf("); adoptions that waited: free-running %d, early %d, late %d; max displacement "
+              "%.2f mm\n",
+              free_running.waits, early.waits, late.waits, 1e3 * free_running.Displacement());
+  EXPECT_TRUE(all_identical);
+  // not vacuous: refreshes happened, each adopted exactly refactor_adopt_delay steps after the
+  // request, never factorized inside a step; the late worker made the main thread wait
+  EXPECT_GE(free_running.swaps, 2);
+  ASSERT_GE(free_running.request_steps.size(), free_running.swap_steps.size());
+  for (size_t k = 0; k < free_running.swap_steps.size(); ++k)
+    EXPECT_EQ(free_running.swap_steps[k], free_running.request_steps[k] + config.refactor_adopt_delay);
+  EXPECT_EQ(free_running.in_step_factorizations, 0);
+  EXPECT_EQ(early.waits, 0);
+  EXPECT_GT(late.waits, 0);
+}
+
+// against the in-step refresh (background_refactor = false: the factor of step k is made inside
+// step k and used from step k + 1) and the direct solver (this step's A factorized every step)
+TEST(FemBackgroundRefreshTest, AgreesWithInStepRefreshAndDirectSolver) {
+  FemConfig in_step_config = LiverConfig();
+  in_step_config.background_refactor = false;
+  FemConfig delay1_config = LiverConfig();
+  delay1_config.refactor_adopt_delay = 1;
+  FemConfig direct_config = LiverConfig();
+  direct_config.linear_solver = FemLinearSolver::kDirect;
+  LiverRun in_step(in_step_config), delay1(delay1_config), background(LiverConfig()), direct(direct_config);
+  double max_background = 0.0, max_in_step = 0.0, max_vs_in_step = 0.0;
+  bool delay1_identical = true;
+  for (int step = 0; step < kSteps; ++step) {
+    in_step.Step(step);
+    delay1.Step(step);
+    background.Step(step);
+    direct.Step(step);
+    // a delay of 1 preconditions every step with the same factor as the in-step refresh
+    delay1_identical = delay1_identical && Identical(in_step, delay1);
+    const Eigen::Matrix3Xd& x = direct.state->x;
+    max_background = std::max(max_background, (background.state->x - x).cwiseAbs().maxCoeff());
+    max_in_step = std::max(max_in_step, (in_step.state->x - x).cwiseAbs().maxCoeff());
+    max_vs_in_step =
+        std::max(max_vs_in_step, (background.state->x - in_step.state->x).cwiseAbs().maxCoeff());
+  }
+  const double motion = direct.Displacement();
+  std::printf("%d breathing steps, max displacement %.2f mm; max node position difference vs "
+              "direct: background (delay 3) %.2e m, in-step refresh %.2e m; background vs in-step "
+              "%.2e m; refreshes: in-step %d, background %d (requests %d)\n",
+              kSteps, 1e3 * motion, max_background, max_in_step, max_vs_in_step,
+              in_step.in_step_factorizations, background.swaps, background.requests);
+  EXPECT_TRUE(delay1_identical);
+  EXPECT_EQ(delay1.in_step_factorizations, 0);
+  EXPECT_EQ(delay1.swaps, in_step.in_step_factorizations);
+  EXPECT_GT(background.swaps, 0);
+  // every solve is converged to 1e-6 (checked in LiverRun::Step): the trajectories stay within
+  // the solver tolerance times the motion of each other and of the direct solver, whichever
+  // factor preconditions a step (measured: ~2e-8 relative, the same for both refreshes)
+  const double tolerance = LiverConfig().cg_relative_tolerance;
+  EXPECT_LT(max_background, tolerance * motion);
+  EXPECT_LT(max_in_step, tolerance * motion);
+  EXPECT_LT(max_vs_in_step, tolerance * motion);
+}
+
+// a PCG that hits cg_max_iterations falls back to a factor of this step on this thread; a
+// background job in flight is then dropped (waiting for it): still deterministic
+TEST(FemBackgroundRefreshTest, FallbackDropsTheJobInFlightDeterministically) {
+  FemConfig config = LiverConfig();
+  config.refactor_iteration_threshold = 1;  // ask for a refresh whenever PCG needs 2
+  config.cg_max_iterations = 2;             // and fall back whenever it needs 3
+  config.refactor_adopt_delay = 5;
+  LiverRun a(config), b(config);
+  b.solver->SetWorkerDelayForTesting(milliseconds(50));
+  int fallbacks = 0, dropped = 0, in_flight_until = -1;
+  for (int step = 0; step < 60; ++step) {
+    const FemStepStats sa = a.Step(step);
+    b.Step(step);
+    if (sa.fell_back_to_direct) {
+      ++fallbacks;
+      if (step < in_flight_until) ++dropped;  // a job was in flight: dropped
+      in_flight_until = -1;
+      EXPECT_FALSE(sa.factor_swapped);
+    }
+    if (sa.factor_swapped) {
+      EXPECT_EQ(step, in_flight_until);
+    }
+    if (sa.refresh_requested) in_flight_until = step + config.refactor_adopt_delay;
+    ASSERT_TRUE(Identical(a, b)) << step;
+  }
+  std::printf("fallback: %d fallbacks (%d dropping a job in flight), %d requests, %d adopted\n",
+              fallbacks, dropped, a.requests, a.swaps);
+  EXPECT_GT(dropped, 0);
+  EXPECT_EQ(a.swaps + dropped + (in_flight_until >= 0 ? 1 : 0), a.requests);
+}
+
+}  // namespace
+}  // namespace nsim
