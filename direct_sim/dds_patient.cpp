@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <memory>
 
 #include "common/core/clock.h"
@@ -114,7 +115,7 @@ class PatientPump {
       return 1;
     }
     const std::optional<SimStatus> peer =
-        transport::WaitForPeerRunning(*status_in_, "direct_sim", kPeerSettle_s);
+        transport::WaitForPeerRunning(*status_in_, "direct_sim", kPeerSettle_s, &owner_);
     if (!peer) {
       if (!quiet_)
         std::printf("run: the controller sent no running status; starting after %.1f s\n",
@@ -164,11 +165,32 @@ class PatientPump {
     return true;
   }
 
+  // One owner of the robot: the process whose running status opened the run (bound at the
+  // handshake; a controller that sends no status is bound by its first target). A target from
+  // any other process is rejected and counted by writer, and never reaches the gate.
+  bool FromOwner(uint64_t writer) {
+    auto it = writer_participant_.find(writer);
+    if (it == writer_participant_.end())
+      it = writer_participant_.emplace(writer, targets_->ParticipantOfWriter(writer)).first;
+    if (owner_ == 0 && it->second != 0) owner_ = it->second;
+    if (it->second != 0 && it->second == owner_) return true;
+    ++info_.foreign_targets;
+    ++info_.foreign_by_writer[Str(std::hex, writer)];
+    if (info_.foreign_targets == 1)
+      std::cerr << "direct_sim run: rejecting targets from a process that does not own the robot "
+                   "(writer "
+                << std::hex << writer << std::dec << ")\n";
+    return false;
+  }
+
   // takes the targets that arrived; notes the loop latency (frame sent -> answer received)
   void TakeTargets() {
     received_.clear();
-    targets_->Take(received_);
-    for (const RobotTarget& r : received_) {
+    writers_.clear();
+    targets_->Take(received_, &writers_);
+    for (size_t i = 0; i < received_.size(); ++i) {
+      const RobotTarget& r = received_[i];
+      if (!FromOwner(writers_[i])) continue;
       if (r.answers_seq < sent_at_.size() && sent_at_[r.answers_seq] > 0)
         info_.latency_ms.push_back(1e3 * (MonotonicSeconds() - sent_at_[r.answers_seq]));
       if (run_.mode == RunMode::kLockstep) {
@@ -240,6 +262,9 @@ class PatientPump {
   SimStatus status_;
   uint64_t frames_sent_ = 0;
   std::vector<RobotTarget> received_;
+  std::vector<uint64_t> writers_;
+  uint64_t owner_ = 0;  // ParticipantId of the controller that owns the robot
+  std::map<uint64_t, uint64_t> writer_participant_;
   std::vector<double> sent_at_;  // monotonic time each frame was published (s), by seq
   bool seen_alive_ = false;
   std::string message_;

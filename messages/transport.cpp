@@ -106,6 +106,21 @@ struct Writer<Sample>::Scratch {
   ConvertScratch convert;
 };
 
+namespace {
+
+// a 64-bit FNV-1a digest of a GUID (16 bytes): the identity of a participant, the same on
+// every machine that sees it
+uint64_t GuidId(const dds_guid_t& guid) {
+  uint64_t h = 14695981039346656037ull;
+  for (const uint8_t byte : guid.v) {
+    h ^= byte;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+}  // namespace
+
 template <typename Sample>
 Writer<Sample>::Writer(Participant& participant, Qos qos) : scratch_(std::make_unique<Scratch>()) {
   using Traits = MessageTraits<Sample>;
@@ -178,7 +193,7 @@ bool Reader<Sample>::Wait(double timeout_s) {
 }
 
 template <typename Sample>
-size_t Reader<Sample>::Take(std::vector<Sample>& out) {
+size_t Reader<Sample>::Take(std::vector<Sample>& out, std::vector<uint64_t>* writers) {
   using Msg = typename MessageTraits<Sample>::Msg;
   constexpr int kBatch = 64;
   size_t taken = 0;
@@ -197,12 +212,22 @@ size_t Reader<Sample>::Take(std::vector<Sample>& out) {
         continue;
       }
       out.push_back(std::move(sample));
+      if (writers) writers->push_back(info[i].publication_handle);
       ++taken;
     }
     if (n > 0) dds_return_loan(reader_, buf, n);
     if (n < kBatch) break;
   }
   return taken;
+}
+
+template <typename Sample>
+uint64_t Reader<Sample>::ParticipantOfWriter(uint64_t writer) {
+  dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader_, writer);
+  if (!endpoint) return 0;
+  const uint64_t participant = GuidId(endpoint->participant_key);
+  dds_builtintopic_free_endpoint(endpoint);
+  return participant;
 }
 
 template <typename Sample>
@@ -229,19 +254,31 @@ template class Reader<RobotTarget>;
 template class Reader<SimStatus>;
 
 std::optional<SimStatus> WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self,
-                                            double timeout_s) {
+                                            double timeout_s, uint64_t* participant) {
   const double end = MonotonicSeconds() + timeout_s;
   std::vector<SimStatus> statuses;
+  std::vector<uint64_t> writers;
   while (true) {
     statuses.clear();
-    reader.Take(statuses);
-    for (const SimStatus& s : statuses)
-      if (s.sender != self && (s.state == RunState::kRunning || s.state == RunState::kFailed))
+    writers.clear();
+    reader.Take(statuses, &writers);
+    for (size_t i = 0; i < statuses.size(); ++i) {
+      const SimStatus& s = statuses[i];
+      if (s.sender != self && (s.state == RunState::kRunning || s.state == RunState::kFailed)) {
+        if (participant) *participant = reader.ParticipantOfWriter(writers[i]);
         return s;
+      }
+    }
     const double left = end - MonotonicSeconds();
     if (left <= 0) return std::nullopt;
     reader.Wait(std::min(0.02, left));
   }
+}
+
+uint64_t ParticipantId(const Participant& participant) {
+  dds_guid_t guid;
+  Checked(dds_get_guid(participant.handle(), &guid), "get participant GUID");
+  return GuidId(guid);
 }
 
 }  // namespace nsim::transport

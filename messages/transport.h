@@ -116,8 +116,12 @@ class Reader {
   /// Blocks until data arrives or the reader's liveliness/deadline status changes, at most
   /// `timeout_s`. Returns false on timeout.
   bool Wait(double timeout_s);
-  /// Appends every available sample to `out` (in reception order); returns how many.
-  size_t Take(std::vector<Sample>& out);
+  /// Appends every available sample to `out` (in reception order); returns how many. With
+  /// `writers`, appends the instance handle of each sample's writer beside it.
+  size_t Take(std::vector<Sample>& out, std::vector<uint64_t>* writers = nullptr);
+  /// The identity (ParticipantId) of the participant a matched writer belongs to (its
+  /// process), 0 when the writer is not (or no longer) matched.
+  uint64_t ParticipantOfWriter(uint64_t writer);
   /// Polls and accumulates the liveliness, deadline and match statuses.
   ReaderHealth health();
 
@@ -133,6 +137,10 @@ class Reader {
 /// writer matching a reader is not enough, since until the reader knows the writer it drops
 /// the writer's samples (the first frames of a run would be lost).
 std::optional<SimStatus> WaitForPeerRunning(Reader<SimStatus>& reader, const std::string& self,
-                                            double timeout_s);
+                                            double timeout_s, uint64_t* participant = nullptr);
+
+/// A participant's identity: a digest of its GUID (what ParticipantOfWriter returns for its
+/// writers, on any machine).
+uint64_t ParticipantId(const Participant& participant);
 
 }  // namespace nsim::transport

@@ -14,6 +14,14 @@ json Timing(const TimingStat& s) {
   return {{"mean_ms", 1e3 * s.mean()}, {"max_ms", 1e3 * s.max}, {"count", s.count}};
 }
 
+// the loop delays the controller measured (frame -> frame whose step executed its answer)
+json DelayStats(const std::vector<double>& delays_s) {
+  if (delays_s.empty()) return {{"median", nullptr}, {"p95", nullptr}, {"max", nullptr}, {"count", 0}};
+  const SampleSummary s = Summarize(delays_s);
+  return {{"median", 1e3 * s.median}, {"p95", 1e3 * s.p95}, {"max", 1e3 * s.max},
+          {"count", s.count}};
+}
+
 }  // namespace
 
 ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(out_dir) {
@@ -61,6 +69,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"total", Timing(loop.total_time())},
             {"loop_period", Timing(loop.loop_period())},
             {"frame_sent_to_target_sent", Timing(info.frame_to_target)}}},
+          {"measured_loop_delay_ms", DelayStats(loop.measured_delays())},
           {"nrms_percent", nrms},
           {"prediction_rms_mm", rms},
           {"prediction_bias_mm", bias},
@@ -84,6 +93,8 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
               {"angle", c.control.gains.angle},
               {"entry", c.control.gains.entry}}},
             {"regularization", c.control.law.regularization},
+            {"compensate_in_flight", c.control.compensate_in_flight},
+            {"measure_latency", c.measure_latency},
             {"mode", info.lockstep ? "lockstep" : "realtime"},
             {"domain", info.domain},
             {"partition", info.partition}}}};

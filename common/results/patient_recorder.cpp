@@ -140,6 +140,8 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
                   {"rejected", rejected},
                   {"clamped", clamped},
                   {"transport_invalid", info.transport_invalid},
+                  {"foreign", info.foreign_targets},
+                  {"foreign_by_writer", info.foreign_by_writer},
                   {"hold_steps", hold_steps_},
                   {"lockstep_timeouts", info.lockstep_timeouts}};
   j["controller_lost"] = info.controller_lost_time.has_value();

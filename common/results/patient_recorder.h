@@ -8,6 +8,7 @@
 // settings.
 
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -32,6 +33,10 @@ struct PatientRunInfo {
   std::vector<double> latency_ms;  ///< per received target: frame sent -> target received (ms)
   uint64_t lockstep_timeouts = 0;  ///< lockstep steps that went on without the awaited answer
   uint64_t transport_invalid = 0;  ///< targets dropped by the transport (malformed)
+  /// targets from a process other than the robot's owner (the controller bound at the start),
+  /// rejected before the gate, in all and by writer (hex instance handle)
+  uint64_t foreign_targets = 0;
+  std::map<std::string, uint64_t> foreign_by_writer;
   std::optional<double> controller_lost_time;  ///< simulated time the controller was lost (s)
   bool video = false, png = false;  ///< outputs written
   int vtk_snapshots = 0;

@@ -145,11 +145,23 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
                          (control_.dof == SteeringDof::kCartesian6 ? input.X_WE_commanded.has_value()
                                                                   : input.q_commanded.has_value());
   out.e_expected = out.e;
+  // only the part of the motion in flight that the objectives see (its projection J_r^+ J,
+  // the regularized inverse's own): in a direction the Jacobian barely sees (the needle's roll,
+  // lateral motion of a needle held by the tissue, the iiwa's null space) the command would
+  // otherwise accumulate steps that the error never acknowledges (integral wind-up)
+  auto seen = [&](const Eigen::VectorXd& in_flight_motion) -> Eigen::VectorXd {
+    Eigen::MatrixXd J_r_plus;
+    CalcTikhonovPseudoInverse(out.J, control_.law.regularization, &J_r_plus,
+                              control_.law.tikhonov_form);
+    return J_r_plus * (out.J * in_flight_motion);
+  };
   if (control_.dof == SteeringDof::kCartesian6) {
     Eigen::Isometry3d base = X_WF;
-    if (in_flight && IsFinitePose(*input.X_WE_commanded)) {
-      base = *input.X_WE_commanded;
-      out.e_expected += out.J * CalcPoseDifference(base, X_WF, control_.law.frame);
+    if (in_flight && IsFinitePose(*input.X_WE_commanded) && out.J.allFinite()) {
+      const Vector6d motion =
+          seen(CalcPoseDifference(*input.X_WE_commanded, X_WF, control_.law.frame));
+      base = ApplyPoseIncrement(X_WF, motion, control_.law.frame);
+      out.e_expected += out.J * motion;
     }
     const CartesianControlOutput law =
         CalcCartesianTarget(base, out.J, out.e_expected, k, control_.law);
@@ -159,9 +171,10 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     out.q_target = input.q;
   } else {
     Vector7d base = input.q;
-    if (in_flight && input.q_commanded->allFinite()) {
-      base = *input.q_commanded;
-      out.e_expected += out.J * (base - input.q);
+    if (in_flight && input.q_commanded->allFinite() && out.J.allFinite()) {
+      const Vector7d motion = seen(*input.q_commanded - input.q);
+      base = input.q + motion;
+      out.e_expected += out.J * motion;
     }
     const JointControlOutput law = CalcJointTarget(base, out.J, out.e_expected, k, control_.law);
     out.valid = law.valid && status.all_finite;

@@ -60,6 +60,16 @@ class ChildProcess {
     return -1;
   }
 
+  /// True once the process has ended (reaps it; does not wait).
+  bool Exited() {
+    if (exited_) return true;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) != pid_) return false;
+    exited_ = true;
+    code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return true;
+  }
+
   /// Sends `sig` and reaps the process if it was SIGKILL.
   void Kill(int sig) {
     if (exited_ || pid_ <= 0) return;

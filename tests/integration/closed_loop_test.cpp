@@ -21,6 +21,8 @@
 #include <thread>
 #include <vector>
 
+#include "common/core/clock.h"
+#include "messages/transport.h"
 #include "tests/integration/child_process.h"
 #include "tests/integration/test_util.h"
 
@@ -177,6 +179,56 @@ TEST(ClosedLoop, AControllerWithAnotherScenarioIsRefused) {
       << loop.inverse->Output();
   EXPECT_EQ(loop.DirectSummary()["exit"], "scenario_mismatch");
   EXPECT_EQ(loop.DirectSummary()["steps"], 0);
+}
+
+// One owner of the robot: a second process on the domain answering every frame with a target
+// 45 mm off is detected and rejected, and moves the robot 0 mm: the run equals, byte for byte,
+// the same run without it (in-process, no DDS at all).
+TEST(ClosedLoop, AnInjectorOfTargetsMovesTheRobotZeroMillimetres) {
+  const fs::path dir = TempDir("closed_loop_inject");
+  const fs::path scenario = WriteScenario(dir, {});
+  const std::string partition = "inject_" + std::to_string(getpid());
+  transport::TransportConfig tc;
+  tc.domain_id = kDomain;
+  tc.partition = partition;
+  tc.config_file = kDdsConfig;
+  transport::Participant injector(tc);
+  transport::Reader<SensorFrame> frames(injector, transport::Qos::kLossless);
+  transport::Writer<RobotTarget> targets(injector, transport::Qos::kLossless);
+  Loop loop(dir, "inject", scenario, {"--duration", "4"}, {"--prediction", "off"});
+  ChildProcess alone(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
+                          (dir / "alone/direct").string(), "--in-process", "--duration", "4",
+                          "--prediction", "off", "--no-video", "--quiet"},
+                         {}),
+                     (dir / "alone.log").string());
+  std::vector<SensorFrame> got;
+  uint64_t injected = 0;
+  const double end = MonotonicSeconds() + 80.0;
+  while (!loop.direct->Exited() && MonotonicSeconds() < end) {
+    frames.Wait(0.05);
+    got.clear();
+    frames.Take(got);
+    for (const SensorFrame& f : got) {
+      RobotTarget t;
+      t.stamp.seq = injected++;
+      t.answers_seq = f.stamp.seq;
+      t.X_WE = f.X_WE;
+      t.X_WE.translation() += Eigen::Vector3d(0.045, 0.0, 0.0);
+      targets.Write(t);
+    }
+  }
+  ASSERT_EQ(loop.direct->Wait(30.0), 0) << loop.direct->Output();
+  EXPECT_EQ(loop.inverse->Wait(10.0), 0) << loop.inverse->Output();
+  ASSERT_EQ(alone.Wait(60.0), 0) << alone.Output();
+  ASSERT_GT(injected, 100u);
+  const json d = loop.DirectSummary();
+  EXPECT_EQ(d["exit"], "completed");
+  EXPECT_GT(d["targets"]["foreign"].get<uint64_t>(), 100u) << d["targets"].dump();
+  EXPECT_EQ(d["targets"]["foreign_by_writer"].size(), 1u);
+  EXPECT_EQ(d["targets"]["rejected_total"], 0);  // the gate never saw them
+  EXPECT_NE(loop.direct->Output().find("does not own the robot"), std::string::npos);
+  EXPECT_TRUE(loop.Timeseries() == ReadText(dir / "alone/direct/timeseries.csv"))
+      << "the injector changed the run";
 }
 
 TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
