@@ -67,12 +67,8 @@ if [ "${NSIM_MODE:-}" = "lockstep" ]; then
   direct_args+=(--latency-steps "$latency")
 fi
 [ -n "$duration" ] && direct_args+=(--duration "$duration")
+# the controller measures its latency (prediction.measure_latency): nothing to pass for it
 controller_args=(--prediction "$prediction")
-if [ -n "${latency:-}" ]; then
-  # the horizon: the next frame plus the simulated latency (latency_steps x time_step)
-  h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
-  controller_args+=(--localization-delay "$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')")
-fi
 
 pids=()
 cleanup() {

@@ -65,11 +65,9 @@ fi
 echo "two_hosts: direct_sim on 10.77.0.1 ($ns1), inverse_sim on 10.77.0.2 ($ns2), loss $loss %, lockstep latency $latency steps"
 echo "two_hosts: results in $out"
 
-h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
-delay=$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')
 common=(--dds-config "$root/configs/dds/two_hosts.xml" --domain "${NSIM_DOMAIN:-0}" --partition "$tag" --lease 3)
 ip netns exec "$ns2" "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --mode lockstep \
-  --prediction "$prediction" --localization-delay "$delay" --timeout 900 --start-timeout 60 \
+  --prediction "$prediction" --timeout 900 --start-timeout 60 \
   "${common[@]}" > "$out/inverse.log" 2>&1 &
 inv=$!; pids+=("$inv")
 direct_args=(--mode lockstep --latency-steps "$latency" --no-video)

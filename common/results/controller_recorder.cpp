@@ -83,7 +83,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"filter", ToString(c.prediction.filter)},
             {"order", c.prediction.order},
             {"optimize_window", c.prediction.optimize_window},
-            {"search_lead", c.prediction.search_lead},
+            {"search_lead", loop.search_lead()},
             {"search_interval", c.prediction.search_interval},
             {"prediction_displacement", c.prediction_displacement},
             {"localization_delay_s", c.horizon.localization_delay},

@@ -98,6 +98,9 @@ class ControllerLoop {
   /// Every measured loop delay: the frame's time minus the time of the frame whose answer the
   /// robot executed in the step before it (s); (d + 1) time steps in lockstep with latency d.
   const std::vector<double>& measured_delays() const { return delays_; }
+  /// Frames ahead the predictor's window search scores now (the measured horizon in frames
+  /// with search_lead_auto, else prediction.search_lead).
+  int search_lead() const { return search_lead_ > 0 ? search_lead_ : config_.prediction.search_lead; }
   /// The current insertion phase (0 outside, 1 skin, 2 liver), for status messages.
   int phase() const { return phase_; }
   const ControllerLoopConfig& config() const { return config_; }

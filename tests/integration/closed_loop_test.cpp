@@ -288,14 +288,16 @@ TEST(ClosedLoop, PredictionBeatsNoPredictionForEveryMarker) {
   // a shorter PCA buffer (2 s instead of 6 s) so the predictor is ready early in a short run
   const fs::path scenario = WriteScenario(dir, {{"pca_window: 300", "pca_window: 100"}});
   Loop loop(dir, "nrms", scenario, {"--duration", "11", "--latency-steps", "2"},
-            {"--prediction", "on", "--localization-delay", "0.04"});
+            {"--prediction", "on"});
   ASSERT_EQ(loop.direct->Wait(85.0), 0) << loop.direct->Output() << loop.inverse->Output();
   EXPECT_EQ(loop.inverse->Wait(10.0), 0) << loop.inverse->Output();
   const json d = loop.DirectSummary(), i = loop.InverseSummary();
   // two steps of latency: the steady error is larger (1.14 mm measured) than with one (0.40 mm)
   EXPECT_LT(d["final_error_mm"].get<double>(), 3.0);
   EXPECT_TRUE(i["settings"]["prediction"].get<bool>());
-  // search_lead auto: the window search scores the horizon in frames, (0.04 + 0.02) / 0.02
+  // the controller measured its loop delay: (2 + 1) steps of 0.02 s, and the window search
+  // scores that horizon in frames (search_lead auto)
+  EXPECT_NEAR(i["measured_loop_delay_ms"]["median"].get<double>(), 60.0, 1e-6);
   EXPECT_EQ(i["settings"]["search_lead"].get<int>(), 3);
   EXPECT_GT(i["predictions_scored"].get<int>(), 400);  // 450 from t = 2 s to 11 s
   ASSERT_EQ(i["nrms_percent"].size(), 5u);
