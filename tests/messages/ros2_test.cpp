@@ -33,17 +33,6 @@ std::vector<SensorFrame> TakeUntil(Ros2Input& input, size_t count, double timeou
   return out;
 }
 
-// waits until the input has taken `robot_poses` robot poses (the frames need one)
-void WaitForRobotPoses(Ros2Input& input, uint64_t robot_poses, double timeout_s) {
-  std::vector<SensorFrame> none;
-  const double end = MonotonicSeconds() + timeout_s;
-  while (input.counts().robot_poses < robot_poses && MonotonicSeconds() < end) {
-    input.Wait(0.05);
-    input.Take(none);
-  }
-  ASSERT_GE(input.counts().robot_poses, robot_poses);
-}
-
 SensorFrame RobotFrame(double t) {
   SensorFrame f;
   f.stamp.sim_time = t;
