@@ -21,8 +21,9 @@ constexpr double kPeerSettle_s = 2.0;
 class PatientPump {
  public:
   PatientPump(PatientLoop& loop, PatientOutputs& outputs, const RunConfig& run,
-              const transport::TransportConfig& transport, uint64_t scenario_hash, bool quiet,
-              PatientRunInfo* info)
+              const transport::TransportConfig& transport,
+              const std::optional<transport::Ros2Config>& ros2, uint64_t scenario_hash,
+              bool quiet, PatientRunInfo* info)
       : loop_(loop),
         outputs_(outputs),
         run_(run),
@@ -44,6 +45,11 @@ class PatientPump {
                                                        : transport::Qos::kTarget);
       status_in_ =
           std::make_unique<transport::Reader<SimStatus>>(participant_, transport::Qos::kStatus);
+    }
+    if (ros2) {
+      transport::Ros2MirrorTopics topics;
+      topics.frames = topics.distance = true;
+      mirror_ = std::make_unique<transport::Ros2Mirror>(*ros2, topics);
     }
     status_.sender = "direct_sim";
     status_.scenario_hash = scenario_hash;
@@ -87,6 +93,7 @@ class PatientPump {
     PublishStatus(ok ? RunState::kFinished : RunState::kFailed, ok ? "finished" : info_.exit);
     frames_.WaitForAcks(2.0);
     status_out_.WaitForAcks(2.0);
+    if (mirror_) mirror_->WaitForAcks(1.0);
     if (targets_) info_.transport_invalid = targets_->health().invalid;
     return ok ? 0 : 1;
   }
@@ -158,6 +165,10 @@ class PatientPump {
     }
     const SensorFrame& frame = loop_.frame();
     frames_.Write(frame);
+    if (mirror_) {
+      mirror_->PublishFrame(frame);
+      mirror_->PublishDistance(loop_.record().distance);  // the truth of the same state
+    }
     if (sent_at_.size() <= frame.stamp.seq) sent_at_.resize(frame.stamp.seq + 1, 0.0);
     sent_at_[frame.stamp.seq] = MonotonicSeconds();
     frames_sent_ = frame.stamp.seq + 1;
@@ -258,6 +269,7 @@ class PatientPump {
   transport::Writer<SimStatus> status_out_;
   std::unique_ptr<transport::Reader<RobotTarget>> targets_;
   std::unique_ptr<transport::Reader<SimStatus>> status_in_;  // the controller's status
+  std::unique_ptr<transport::Ros2Mirror> mirror_;  // --ros2; after the participant: deleted first
   LockstepTargets delay_;
   SimStatus status_;
   uint64_t frames_sent_ = 0;
@@ -273,9 +285,10 @@ class PatientPump {
 }  // namespace
 
 int RunPatientOverDds(PatientLoop& loop, PatientOutputs& outputs, const RunConfig& run,
-                      const transport::TransportConfig& transport, uint64_t scenario_hash,
+                      const transport::TransportConfig& transport,
+                      const std::optional<transport::Ros2Config>& ros2, uint64_t scenario_hash,
                       bool quiet, PatientRunInfo* info) {
-  PatientPump pump(loop, outputs, run, transport, scenario_hash, quiet, info);
+  PatientPump pump(loop, outputs, run, transport, ros2, scenario_hash, quiet, info);
   return pump.Run();
 }
 

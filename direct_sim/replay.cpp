@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <string>
 
 #include "common/core/cli.h"
@@ -10,6 +12,7 @@
 #include "common/core/error.h"
 #include "common/core/interrupt.h"
 #include "common/markers/marker_csv.h"
+#include "messages/ros2.h"
 #include "messages/transport.h"
 #include "messages/transport_options.h"
 
@@ -24,6 +27,7 @@ struct ReplayOptions {
   double rate_scale = 1;
   long wait_readers = 1;
   double wait_timeout = 30;
+  long ros2_wait = 0;  // ROS 2 subscribers of /nsim/markers to wait for
   bool quiet = false;
 };
 
@@ -31,13 +35,19 @@ struct ReplayOptions {
 class Replayer {
  public:
   Replayer(const MarkerStream& stream, const ReplayOptions& options,
-           const transport::TransportConfig& transport)
+           const transport::TransportConfig& transport,
+           const std::optional<transport::Ros2Config>& ros2)
       : stream_(stream),
         options_(options),
         participant_(transport),
         markers_(participant_, transport::Qos::kLossless),
         status_writer_(participant_, transport::Qos::kStatus),
         status_reader_(participant_, transport::Qos::kStatus) {
+    if (ros2) {
+      transport::Ros2MirrorTopics topics;
+      topics.frames = true;
+      mirror_ = std::make_unique<transport::Ros2Mirror>(*ros2, topics);
+    }
     status_.sender = "direct_sim";
     status_.message = "replay";
     PublishStatus();
@@ -46,6 +56,7 @@ class Replayer {
   // the exit code
   int Run() {
     if (options_.wait_readers > 0 && !WaitForReaders()) return 1;
+    if (options_.ros2_wait > 0 && !WaitForRos2Subscribers()) return 1;
     Stream();
     return Finish();
   }
@@ -75,6 +86,21 @@ class Replayer {
     return true;
   }
 
+  // false (after a message) when the ROS 2 subscribers did not come in time
+  bool WaitForRos2Subscribers() {
+    if (!mirror_->WaitForMarkerSubscribers(static_cast<int>(options_.ros2_wait),
+                                           options_.wait_timeout)) {
+      std::cerr << "direct_sim replay: no ROS 2 subscriber of " << transport::ros2_topic::kMarkers
+                << " after " << options_.wait_timeout
+                << " s (is it on the same domain, --domain or ROS_DOMAIN_ID?)\n";
+      return false;
+    }
+    // as above: the subscriber must know this writer too; a ROS 2 node does not say when it
+    // does, so it gets the settle time (a volatile subscriber would drop the first frames)
+    SleepUntilMonotonic(MonotonicSeconds() + kSettleTimeout_s);
+    return true;
+  }
+
   // every frame at its due time (until interrupted), with a status and a progress line a second
   void Stream() {
     const auto& frames = stream_.frames;
@@ -93,6 +119,7 @@ class Replayer {
       frame.p_WM = frames[k].p_WM;
       frame.has_robot = false;
       markers_.Write(frame);
+      if (mirror_) mirror_->PublishFrame(frame);
       status_.frames_sent = k + 1;
       status_.last_seq = frames[k].stamp.seq;
       status_.stamp.sim_time = frames[k].stamp.sim_time;
@@ -116,7 +143,8 @@ class Replayer {
     status_.rate_hz = elapsed > 0 ? status_.frames_sent / elapsed : 0;
     PublishStatus();
     // let reliable readers receive the tail of the stream and the final status before leaving
-    const bool acked = markers_.WaitForAcks(5.0) && status_writer_.WaitForAcks(5.0);
+    const bool acked = markers_.WaitForAcks(5.0) && status_writer_.WaitForAcks(5.0) &&
+                       (!mirror_ || mirror_->WaitForAcks(5.0));
     std::printf(
         "replay: sent %lu frames of %d markers in %.3f s (%.1f Hz), max lateness %.2f ms%s%s\n",
         static_cast<unsigned long>(status_.frames_sent), stream_.num_markers, elapsed,
@@ -131,6 +159,7 @@ class Replayer {
   transport::Writer<SensorFrame> markers_;
   transport::Writer<SimStatus> status_writer_;
   transport::Reader<SimStatus> status_reader_;
+  std::unique_ptr<transport::Ros2Mirror> mirror_;  // --ros2; after the participant: deleted first
   SimStatus status_;
   double start_ = 0, max_lateness_ = 0;
 };
@@ -145,8 +174,11 @@ int RunReplay(int argc, char** argv) {
       .Option("rate-scale", "X", "play X times faster than recorded", "1")
       .Option("wait-readers", "N", "wait for N SensorFrame readers before streaming", "1")
       .Option("wait-timeout", "S", "give up waiting for readers after S seconds", "30")
+      .Option("ros2-wait", "N",
+              "with --ros2: wait for N ROS 2 subscribers of /nsim/markers before streaming", "0")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli);
+  transport::AddRos2Options(cli);
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   ReplayOptions options;
   options.markers = cli.GetString("markers");
@@ -158,14 +190,20 @@ int RunReplay(int argc, char** argv) {
     throw InputError(Str("--wait-readers must be >= 0, got ", options.wait_readers));
   options.wait_timeout = cli.GetDouble("wait-timeout");
   options.quiet = cli.GetFlag("quiet");
+  options.ros2_wait = cli.GetInt("ros2-wait");
+  if (options.ros2_wait < 0)
+    throw InputError(Str("--ros2-wait must be >= 0, got ", options.ros2_wait));
+  if (options.ros2_wait > 0 && !cli.GetFlag("ros2"))
+    throw InputError("--ros2-wait needs --ros2");
 
   const MarkerStream stream = ReadMarkerCsv(options.markers);
   if (stream.num_markers > 64)
     throw InputError(
         Str("a SensorFrame carries at most 64 markers, the stream has ", stream.num_markers));
   const transport::TransportConfig tc = transport::TransportFromCli(cli);
+  const std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
   InstallInterruptHandler();
-  return Replayer(stream, options, tc).Run();
+  return Replayer(stream, options, tc, ros2).Run();
 }
 
 }  // namespace nsim

@@ -52,6 +52,7 @@ void DeclareOptions(CommandLine& cli) {
       .Flag("quiet", "no progress lines");
   AddControllerOptions(cli);
   transport::AddTransportOptions(cli);
+  transport::AddRos2Options(cli);
 }
 
 // the command line's overrides of the scenario (InputError naming the option)
@@ -135,6 +136,8 @@ int RunDirect(int argc, char** argv) {
   if (!cli.Given("domain")) tc.domain_id = scenario.dds_domain;
   if (!cli.Given("partition")) tc.partition = scenario.dds_partition;
   tc.Validate();
+  const std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
+  if (ros2 && in_process) throw InputError("--ros2 needs the DDS path: not with --in-process");
   const std::string out_dir = cli.Has("out") ? cli.GetString("out") : DefaultOutDir();
   InstallInterruptHandler();
 
@@ -142,7 +145,7 @@ int RunDirect(int argc, char** argv) {
   PatientOutputs outputs(out_dir, scenario.run, scenario.view, cli.GetFlag("quiet"));
   PatientRunInfo info = MakeInfo(scenario, in_process);
   const int code = in_process ? RunInProcess(cli, scenario, loop, outputs, &info)
-                              : RunPatientOverDds(loop, outputs, scenario.run, tc,
+                              : RunPatientOverDds(loop, outputs, scenario.run, tc, ros2,
                                                   scenario.scenario_hash, cli.GetFlag("quiet"),
                                                   &info);
   outputs.Finish(loop, &info);

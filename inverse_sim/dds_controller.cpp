@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <deque>
 #include <iostream>
+#include <memory>
 
 #include "common/core/clock.h"
 #include "common/core/error.h"
@@ -28,6 +29,11 @@ class ControllerPump {
         targets_(participant_,
                  options.lockstep ? transport::Qos::kLossless : transport::Qos::kTarget),
         status_out_(participant_, transport::Qos::kStatus) {
+    if (options.ros2) {
+      transport::Ros2MirrorTopics topics;
+      topics.targets = true;
+      mirror_ = std::make_unique<transport::Ros2Mirror>(*options.ros2, topics);
+    }
     own_.sender = "inverse_sim";
     own_.scenario_hash = options.scenario_hash;
     // "starting" until the frame reader has matched direct_sim's writer
@@ -128,6 +134,7 @@ class ControllerPump {
     if (loop_.counts().answered > answered_before) recorder_.AddAnswer(loop_);
     if (!target) return;
     targets_.Write(*target);
+    if (mirror_) mirror_->PublishTarget(*target);
     info_.frame_to_target.Add(1e-9 * static_cast<double>(WallTimeNs() - frame.stamp.wall_time_ns));
   }
 
@@ -175,6 +182,7 @@ class ControllerPump {
             last_error_.empty() ? info_.ending : last_error_);
     status_out_.WaitForAcks(1.0);
     targets_.WaitForAcks(1.0);
+    if (mirror_) mirror_->WaitForAcks(1.0);
     info_.frames_received = seqs_.received();
     info_.frames_missing = seqs_.missing();
     info_.frames_out_of_order = late_;
@@ -193,6 +201,7 @@ class ControllerPump {
   transport::Reader<SimStatus> status_in_;
   transport::Writer<RobotTarget> targets_;
   transport::Writer<SimStatus> status_out_;
+  std::unique_ptr<transport::Ros2Mirror> mirror_;  // --ros2; after the participant: deleted first
   SimStatus own_;
   SequenceTracker seqs_;
   std::deque<SensorFrame> queue_;

@@ -4,10 +4,12 @@
 // realtime: the newest, older ones only feed the predictor), and stops when direct_sim
 // finishes, dies, or sends a different scenario (its status's scenario hash).
 
+#include <optional>
 #include <string>
 
 #include "common/results/controller_recorder.h"
 #include "common/steering/controller_loop.h"
+#include "messages/ros2.h"
 #include "messages/transport.h"
 
 namespace nsim {
@@ -19,6 +21,8 @@ struct ControllerPumpOptions {
   double start_timeout = 60.0;   ///< give up if direct_sim is not seen within this (s)
   uint64_t scenario_hash = 0;    ///< ours; direct_sim's must equal it
   bool quiet = false;
+  /// --ros2: every target also on /nsim/target_pose (messages/ros2.h)
+  std::optional<transport::Ros2Config> ros2;
 };
 
 /// Runs until the end of the insertion; fills `info` (ending, frame counts, latencies) and

@@ -1,6 +1,7 @@
 #include "inverse_sim/run_command.h"
 
 #include <filesystem>
+#include <optional>
 
 #include "common/core/cli.h"
 #include "common/core/error.h"
@@ -10,10 +11,32 @@
 #include "common/steering/controller_loop.h"
 #include "inverse_sim/controller_options.h"
 #include "inverse_sim/dds_controller.h"
+#include "inverse_sim/ros2_controller.h"
 #include "inverse_sim/scenario_loader.h"
 #include "messages/transport_options.h"
 
 namespace nsim {
+namespace {
+
+// --ros2-io: the options of the ROS 2 pump (realtime only: a ROS 2 source does not wait for
+// answers)
+ControllerRos2Options Ros2IoOptions(const CommandLine& cli, const InverseScenario& scenario,
+                                    const ControllerPumpOptions& pump) {
+  if (cli.Has("mode") && cli.GetString("mode") == "lockstep")
+    throw InputError("--ros2-io is realtime only: not with --mode lockstep");
+  ControllerRos2Options o;
+  o.ros2 = *transport::Ros2FromCli(cli, pump.transport, /*force=*/true);
+  o.timeout = pump.timeout;
+  o.start_timeout = pump.start_timeout;
+  o.idle_timeout = cli.GetDouble("ros2-idle");
+  if (!(o.idle_timeout > 0)) throw InputError("--ros2-idle must be > 0 (s)");
+  o.quiet = pump.quiet;
+  const SteeringPathConfig& path = scenario.LoopConfig().path;
+  o.entry_normal_W = (path.entry_W - path.target_W).normalized();
+  return o;
+}
+
+}  // namespace
 
 int RunInverseSim(int argc, char** argv) {
   CommandLine cli("inverse_sim run --config S.yaml [options]",
@@ -27,9 +50,14 @@ int RunInverseSim(int argc, char** argv) {
               {"realtime", "lockstep"})
       .Option("timeout", "S", "give up after S seconds in all", "3600")
       .Option("start-timeout", "S", "give up if direct_sim is not seen within S seconds", "60")
-      .Flag("quiet", "no progress lines");
+      .Flag("quiet", "no progress lines")
+      .Flag("ros2-io",
+            "take markers, robot state and entry point from the ROS 2 topics and publish the "
+            "targets there (/nsim/target_pose, /nsim/robot/joint_command); realtime")
+      .Option("ros2-idle", "S", "with --ros2-io: end when no markers came for S seconds", "5");
   AddControllerOptions(cli);
   transport::AddTransportOptions(cli);
+  transport::AddRos2Options(cli);
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   InverseScenario scenario = LoadInverseScenario(cli.GetString("config"));
   ApplyControllerOptions(cli, &scenario);
@@ -47,6 +75,12 @@ int RunInverseSim(int argc, char** argv) {
   if (!cli.Given("domain")) options.transport.domain_id = scenario.dds_domain;
   if (!cli.Given("partition")) options.transport.partition = scenario.dds_partition;
   options.transport.Validate();
+  options.ros2 = transport::Ros2FromCli(cli, options.transport);
+  std::optional<ControllerRos2Options> ros2_io;
+  if (cli.GetFlag("ros2-io")) {
+    ros2_io = Ros2IoOptions(cli, scenario, options);
+    scenario.lockstep = false;
+  }
 
   const std::string out_dir = cli.GetString("out");
   std::filesystem::create_directories(out_dir);
@@ -61,7 +95,15 @@ int RunInverseSim(int argc, char** argv) {
   info.lockstep = scenario.lockstep;
   info.domain = options.transport.domain_id;
   info.partition = options.transport.partition;
-  const int code = RunControllerOverDds(loop, recorder, options, &info);
+  int code = 0;
+  if (ros2_io) {
+    info.transport = "ros2";
+    info.domain = ros2_io->ros2.domain_id;
+    info.partition.clear();
+    code = RunControllerOverRos2(loop, recorder, *ros2_io, &info);
+  } else {
+    code = RunControllerOverDds(loop, recorder, options, &info);
+  }
   recorder.WriteSummary(loop, info);
   return code;
 }

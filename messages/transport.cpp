@@ -9,9 +9,9 @@
 #include "common/core/clock.h"
 #include "common/core/error.h"
 #include "messages/convert.h"
+#include "messages/dds_util.h"
 
 namespace nsim::transport {
-namespace {
 
 dds_duration_t ToDuration(double seconds) {
   return seconds > 0 ? static_cast<dds_duration_t>(seconds * 1e9) : DDS_INFINITY;
@@ -21,6 +21,20 @@ int32_t Checked(int32_t rc, const char* what) {
   if (rc < 0) throw std::runtime_error(Str("DDS: ", what, " failed: ", dds_strretcode(rc)));
   return rc;
 }
+
+dds_entity_t CreateDomain(int domain_id, const std::string& config_file) {
+  if (config_file.empty()) return 0;
+  const std::string uri =
+      "file://" + std::filesystem::absolute(config_file).lexically_normal().string();
+  const dds_entity_t domain = dds_create_domain(domain_id, uri.c_str());
+  // a domain already created in this process (another participant) is reused as it is
+  if (domain < 0 && domain != DDS_RETCODE_PRECONDITION_NOT_MET)
+    throw std::runtime_error(Str("DDS: cannot create domain ", domain_id, " from '",
+                                 config_file, "': ", dds_strretcode(domain)));
+  return domain > 0 ? domain : 0;
+}
+
+namespace {
 
 /// QoS of a profile; `writer` selects the offered (writer) or requested (reader) side.
 dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
@@ -63,16 +77,7 @@ void TransportConfig::Validate() const {
 
 Participant::Participant(const TransportConfig& config) : config_(config) {
   config_.Validate();
-  if (!config_.config_file.empty()) {
-    const std::string uri =
-        "file://" + std::filesystem::absolute(config_.config_file).lexically_normal().string();
-    const dds_entity_t domain = dds_create_domain(config_.domain_id, uri.c_str());
-    // a domain already created in this process (another participant) is reused as it is
-    if (domain < 0 && domain != DDS_RETCODE_PRECONDITION_NOT_MET)
-      throw std::runtime_error(Str("DDS: cannot create domain ", config_.domain_id, " from '",
-                                   config_.config_file, "': ", dds_strretcode(domain)));
-    if (domain > 0) domain_ = domain;
-  }
+  domain_ = CreateDomain(config_.domain_id, config_.config_file);
   participant_ =
       Checked(dds_create_participant(config_.domain_id, nullptr, nullptr), "create participant");
   dds_qos_t* qos = dds_create_qos();

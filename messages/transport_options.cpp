@@ -22,4 +22,16 @@ TransportConfig TransportFromCli(const CommandLine& cli) {
   return c;
 }
 
+void AddRos2Options(CommandLine& cli) {
+  cli.Flag("ros2",
+           "also publish on ROS 2 topics (/nsim/markers, /nsim/robot/pose, ...; standard ROS 2 "
+           "types, domain --domain or ROS_DOMAIN_ID, no partition)");
+}
+
+std::optional<Ros2Config> Ros2FromCli(const CommandLine& cli, const TransportConfig& transport,
+                                      bool force) {
+  if (!force && !cli.GetFlag("ros2")) return std::nullopt;
+  return Ros2ConfigFor(transport, cli.Given("domain"));
+}
+
 }  // namespace nsim::transport

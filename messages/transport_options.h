@@ -1,7 +1,10 @@
 #pragma once
 // The command-line options every networked subcommand shares (DESIGN.md "What a user runs").
 
+#include <optional>
+
 #include "common/core/cli.h"
+#include "messages/ros2.h"
 #include "messages/transport.h"
 
 namespace nsim::transport {
@@ -12,5 +15,13 @@ void AddTransportOptions(CommandLine& cli);
 
 /// Reads the options added by AddTransportOptions; the result is validated.
 TransportConfig TransportFromCli(const CommandLine& cli);
+
+/// Adds --ros2 (mirror the process's streams to ROS 2 topics, messages/ros2.h).
+void AddRos2Options(CommandLine& cli);
+
+/// The ROS 2 configuration when --ros2 was given (or `force`), else nothing: the domain of
+/// --domain if given, else ROS_DOMAIN_ID, else 0; the DDS configuration file of `transport`.
+std::optional<Ros2Config> Ros2FromCli(const CommandLine& cli, const TransportConfig& transport,
+                                      bool force = false);
 
 }  // namespace nsim::transport

@@ -14,6 +14,7 @@ PACKAGES=(
   gmsh
   python3-matplotlib
   iproute2 nftables procps jq parallel
+  libfastrtps-dev fastddsgen  # only for tests/interop (Fast DDS against the ROS 2 mirror)
 )
 
 missing=()

@@ -65,7 +65,8 @@ struct RobotTarget {
   Stamp stamp;
   uint64_t answers_seq = 0;  ///< seq of the SensorFrame this target was computed from
   TargetMode mode = TargetMode::kCartesian;
-  Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< commanded flange pose (kCartesian)
+  /// commanded flange pose (kCartesian); for kJoint the flange pose q implies, informative
+  Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();
   std::vector<double> q;     ///< commanded joint angles (rad) (kJoint)
   double bevel_angle = 0.0;  ///< commanded needle roll (rad)
 };

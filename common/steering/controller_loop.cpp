@@ -178,6 +178,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   } else {
     target.mode = TargetMode::kJoint;
     target.q.assign(out.q_target.data(), out.q_target.data() + 7);
+    target.X_WE = out.X_WE_target;  // the flange pose q implies: informative (ROS 2 target pose)
   }
   last_target_ = target;
   return target;
