@@ -159,6 +159,20 @@ std::vector<PredictEvalSetting> EvaluateAll(const MarkerStream& clean,
   return settings;
 }
 
+// the PNGs from the CSVs, by scripts/plot_results.py; without Python and matplotlib the
+// evaluation still succeeds, and the message says how to draw them later
+void MakeFigures(const std::string& script, const std::string& dir) {
+  std::cout << std::flush;  // before the script's own lines
+  std::string why;
+  if (DrawPredictEvalFigures(script, dir, &why)) {
+    std::cout << "predict-eval: figures " << dir << "/marker<m>.png\n";
+    return;
+  }
+  std::cerr << "predict-eval: the figures (marker<m>.png) were not made: " << why
+            << "; the series are in " << dir << "/marker<m>.csv; make them with: /usr/bin/python3 "
+            << script << " predict-eval " << dir << "\n";
+}
+
 }  // namespace
 
 int RunPredictEval(int argc, char** argv) {
@@ -169,7 +183,9 @@ int RunPredictEval(int argc, char** argv) {
       "reports RMS (eq. 4.19), nRMS (eq. 4.20, vs. the measurement delayed by the horizon) and "
       "jitter of the 3D position error against the noise-free input, for every combination of "
       "the comma-separated --filter, --order, --snr-db and --horizon values. Writes "
-      "DIR/predict_eval.json, DIR/table.txt and DIR/marker<m>.png (first setting).");
+      "DIR/predict_eval.json, DIR/table.txt, the series of the first setting per marker in "
+      "DIR/marker<m>.csv and their plots DIR/marker<m>.png (drawn by scripts/plot_results.py "
+      "predict-eval DIR with /usr/bin/python3 and matplotlib).");
   cli.Option("markers", "FILE", "input marker CSV (t,m0_x,m0_y,m0_z,...)", "", true)
       .Option("out", "DIR", "output directory (created if missing)", "", true)
       .Option("horizon", "S[,S..]", "prediction horizons (s)", "0.16")
@@ -186,7 +202,10 @@ int RunPredictEval(int argc, char** argv) {
       .Option("search-lead", "N", "samples ahead the window-search cost predicts", "1")
       .Option("kalman-harmonics", "K", "harmonics of the kalman breathing model", "2")
       .Option("seed", "N", "noise seed", "1")
-      .Flag("no-plots", "skip the PNG plots");
+      .Flag("no-plots", "skip the plot series (CSV) and figures (PNG)")
+      .Flag("no-figures", "write the plot series (CSV) but do not draw the PNGs")
+      .Option("plot-script", "FILE", "draws the PNGs (/usr/bin/python3 FILE predict-eval DIR)",
+              NSIM_PLOT_SCRIPT);
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   const PredictEvalOptions options = ReadOptions(cli);
 
@@ -208,11 +227,12 @@ int RunPredictEval(int argc, char** argv) {
       PredictEvalTable(settings, options.snrs, options.horizons, options.base);
   std::cout << table;
   WriteTextFile((out_dir / "table.txt").string(), table);
+  std::cout << "predict-eval: " << settings.size() << " settings, wrote " << json_path << "\n";
   if (!cli.GetFlag("no-plots")) {
     for (int m = 0; m < clean.num_markers; ++m)
-      WriteMarkerPlot((out_dir / Str("marker", m, ".png")).string(), settings.front(), m);
+      WriteMarkerSeriesCsv((out_dir / Str("marker", m, ".csv")).string(), settings.front(), m);
+    if (!cli.GetFlag("no-figures")) MakeFigures(cli.GetString("plot-script"), out_dir.string());
   }
-  std::cout << "predict-eval: " << settings.size() << " settings, wrote " << json_path << "\n";
   return 0;
 }
 

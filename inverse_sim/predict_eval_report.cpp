@@ -1,5 +1,10 @@
 #include "inverse_sim/predict_eval_report.h"
 
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -11,8 +16,9 @@
 #include <nlohmann/json.hpp>
 
 #include "common/core/error.h"
-#include "common/plot/line_plot.h"
 #include "common/prediction/pca_buffer.h"
+
+extern char** environ;
 
 namespace nsim {
 namespace {
@@ -184,6 +190,7 @@ void WritePredictEvalJson(const std::string& path, const std::string& input,
   nlohmann::json list = nlohmann::json::array();
   for (const auto& s : settings) list.push_back(SettingJson(s));
   report["settings"] = list;
+  report["plot_setting"] = 0;  // the series of DIR/marker<m>.csv
   WriteTextFile(path, report.dump(2) + "\n");
 }
 
@@ -204,44 +211,59 @@ std::string PredictEvalTable(const std::vector<PredictEvalSetting>& settings,
   return out.str();
 }
 
-void WriteMarkerPlot(const std::string& path, const PredictEvalSetting& s, int m) {
+void WriteMarkerSeriesCsv(const std::string& path, const PredictEvalSetting& s, int m) {
   const MarkerEvaluation& e = s.evaluation.markers[m];
   const std::vector<double>& t = s.evaluation.t_grid;
   PcaBuffer buffer(static_cast<int>(e.reference.rows()));
   for (long i = 0; i < e.reference.rows(); ++i) buffer.Push(t[i], e.reference.row(i).transpose());
   PrincipalAxes axes;
   buffer.CalcPrincipalAxes(&axes);
+  const std::vector<double> delayed = AlongAxis(e.delayed, axes);
+  const std::vector<double> reference = AlongAxis(e.reference, axes);
+  const std::vector<double> predicted = AlongAxis(e.predicted, axes);
 
-  const std::string setting = Str(
-      ToString(s.filter), s.filter == PredictionFilterKind::kLinear ? Str(" order ", s.order) : "",
-      ", ", SnrLabel(s.snr_db), ", h = ", s.horizon, " s");
-  PlotConfig top;
-  top.title = Str("marker ", m, ": first principal component (", setting, ")");
-  top.x_label = "time (s)";
-  top.y_label = "PC (mm)";
-  LinePlot signal(top);
-  PlotSeries delayed{"measured, delayed by h", t, AlongAxis(e.delayed, axes),
-                     cv::Scalar(170, 170, 170), 1};
-  PlotSeries reference{"reference", t, AlongAxis(e.reference, axes), cv::Scalar(40, 40, 40), 2};
-  PlotSeries predicted{"prediction", t, AlongAxis(e.predicted, axes), cv::Scalar(180, 119, 31), 2};
-  signal.Add(delayed).Add(reference).Add(predicted);
-
-  PlotConfig bottom;
-  bottom.title = Str("3D error: prediction RMS ", Fixed(kMm * e.rms, 3), " mm, nRMS ",
-                     Fixed(kPercent * e.nrms, 1), " %; no prediction RMS ",
-                     Fixed(kMm * e.rms_delayed, 3), " mm");
-  bottom.x_label = "time (s)";
-  bottom.y_label = "error (mm)";
-  bottom.y_min = 0.0;
-  LinePlot error(bottom);
-  std::vector<double> err_pred(t.size()), err_none(t.size());
+  std::ostringstream out;
+  out << "t,delayed_pc_mm,reference_pc_mm,predicted_pc_mm,error_predicted_mm,error_delayed_mm\n";
+  char row[256];
   for (size_t i = 0; i < t.size(); ++i) {
-    err_pred[i] = kMm * (e.predicted.row(i) - e.reference.row(i)).norm();
-    err_none[i] = kMm * (e.delayed.row(i) - e.reference.row(i)).norm();
+    const double err_pred = kMm * (e.predicted.row(i) - e.reference.row(i)).norm();
+    const double err_none = kMm * (e.delayed.row(i) - e.reference.row(i)).norm();
+    std::snprintf(row, sizeof(row), "%.10g,%.10g,%.10g,%.10g,%.10g,%.10g\n", t[i], delayed[i],
+                  reference[i], predicted[i], err_pred, err_none);
+    out << row;
   }
-  error.Add(PlotSeries{"no prediction", t, err_none, cv::Scalar(170, 170, 170), 1});
-  error.Add(PlotSeries{"prediction", t, err_pred, cv::Scalar(40, 39, 214), 1});
-  WritePng(path, StackVertically({signal.Render(), error.Render()}));
+  WriteTextFile(path, out.str());
+}
+
+bool DrawPredictEvalFigures(const std::string& script, const std::string& dir, std::string* why) {
+  const char* python = "/usr/bin/python3";
+  if (access(python, X_OK) != 0) {
+    *why = Str(python, " is missing (apt-get install python3-matplotlib)");
+    return false;
+  }
+  if (access(script.c_str(), R_OK) != 0) {
+    *why = Str("the plot script '", script, "' is missing");
+    return false;
+  }
+  std::vector<std::string> args = {python, script, "predict-eval", dir};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, python, nullptr, nullptr, argv.data(), environ) != 0) {
+    *why = Str("cannot start ", python);
+    return false;
+  }
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return true;
+  // plot_results.py exits with 3 when matplotlib is missing
+  *why = WIFEXITED(status) && WEXITSTATUS(status) == 3
+             ? Str(python, " has no matplotlib (apt-get install python3-matplotlib)")
+             : Str(script, " failed (", WIFEXITED(status) ? "exit code " : "signal ",
+                   WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status), ")");
+  return false;
 }
 
 void WriteTextFile(const std::string& path, const std::string& text) {

@@ -1,6 +1,7 @@
 #pragma once
 // The report of `inverse_sim predict-eval` on the evaluated settings: the JSON file, the text
-// table (thesis figs. 5.3-5.6 style: rows SNR, columns horizon) and the per-marker plots.
+// table (thesis figs. 5.3-5.6 style: rows SNR, columns horizon) and the per-marker plot series
+// (CSV; the figures are drawn from them by scripts/plot_results.py).
 // Lengths in the report are mm, ratios %.
 
 #include <string>
@@ -23,7 +24,8 @@ struct PredictEvalSetting {
 };
 
 /// Writes the JSON report to `path`: the input (`input`, its stream `clean`), the noise seed,
-/// the shared predictor settings `base`, and the mean and per-marker metrics of every setting.
+/// the shared predictor settings `base`, the mean and per-marker metrics of every setting, and
+/// `plot_setting`, the index of the setting whose series are in DIR/marker<m>.csv (0).
 /// InputError when the file cannot be written.
 void WritePredictEvalJson(const std::string& path, const std::string& input,
                           const MarkerStream& clean, long seed, const PredictionConfig& base,
@@ -36,9 +38,18 @@ std::string PredictEvalTable(const std::vector<PredictEvalSetting>& settings,
                              const std::vector<double>& snrs, const std::vector<double>& horizons,
                              const PredictionConfig& base);
 
-/// PNG of marker m in setting `s`: its first principal component (measured delayed by h,
-/// reference, prediction) above the 3D error with and without prediction.
-void WriteMarkerPlot(const std::string& path, const PredictEvalSetting& s, int m);
+/// The series plotted for marker m in setting `s`, as CSV at `path`: header
+/// `t,delayed_pc_mm,reference_pc_mm,predicted_pc_mm,error_predicted_mm,error_delayed_mm`, one
+/// row per grid time (s): the first principal component (of the reference) of the measurement
+/// delayed by h, of the reference and of the prediction, and the 3D error with and without
+/// prediction (mm). scripts/plot_results.py predict-eval draws them. InputError when the file
+/// cannot be written.
+void WriteMarkerSeriesCsv(const std::string& path, const PredictEvalSetting& s, int m);
+
+/// Runs `/usr/bin/python3 SCRIPT predict-eval DIR` (scripts/plot_results.py: DIR/marker<m>.png
+/// from DIR/marker<m>.csv and DIR/predict_eval.json) and waits for it. True when it succeeded;
+/// otherwise false with `why` saying what was missing or failed.
+bool DrawPredictEvalFigures(const std::string& script, const std::string& dir, std::string* why);
 
 /// Writes `text` to `path`; InputError "cannot write '<path>'" when it cannot be opened.
 void WriteTextFile(const std::string& path, const std::string& text);

@@ -12,15 +12,25 @@ Run with Debian's python3 and matplotlib (python3-matplotlib):
   /usr/bin/python3 scripts/plot_results.py experiments --runs RUNS.csv --out DIR
       RUNS.csv (scripts/experiments.sh: setting,run,final_error_mm,final_error_amplitude_mm,...)
       -> DIR/final_error.png (final error and amplitude per setting, every run a dot)
+  /usr/bin/python3 scripts/plot_results.py predict-eval DIR
+      DIR/marker<m>.csv + DIR/predict_eval.json (inverse_sim predict-eval, which runs this
+      itself) -> DIR/marker<m>.png: the first principal component of the measurement delayed
+      by the horizon, the reference and the prediction, above the 3D error with and without
+      prediction (thesis figs. 5.3-5.6)
 
-Exit code 0 on success, 2 on bad input (a message names the file)."""
+Exit code 0 on success, 2 on bad input (a message names the file), 3 without matplotlib."""
 
 import csv
 import json
 import os
 import sys
 
-import matplotlib
+try:
+    import matplotlib
+except ImportError:
+    print("plot_results: no matplotlib for " + sys.executable
+          + " (apt-get install python3-matplotlib)", file=sys.stderr)
+    sys.exit(3)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -161,6 +171,73 @@ def plot_experiments(runs_csv, out_dir):
     print("plot_results: wrote " + out)
 
 
+def read_columns(path, keys):
+    """The float columns `keys` of a CSV file."""
+    if not os.path.isfile(path):
+        fail(path + ": missing")
+    columns = {key: [] for key in keys}
+    with open(path) as f:
+        reader = csv.DictReader(f)
+        for key in keys:
+            if key not in (reader.fieldnames or []):
+                fail(path + ": no column '" + key + "'")
+        for line, row in enumerate(reader, 2):
+            try:
+                for key in keys:
+                    columns[key].append(float(row[key]))
+            except (TypeError, ValueError):
+                fail("%s:%d: expected numbers" % (path, line))
+    if not columns[keys[0]]:
+        fail(path + ": no rows")
+    return columns
+
+
+def setting_label(s):
+    """'lf order 2, no noise, h = 0.16 s' from a setting of predict_eval.json."""
+    label = s["filter"] + (" order %d" % s["order"] if s.get("order") is not None else "")
+    noise = "no noise" if s.get("snr_db") is None else "%g dB" % s["snr_db"]
+    return "%s, %s, h = %g s" % (label, noise, s["horizon_s"])
+
+
+def plot_predict_eval(folder):
+    path = os.path.join(folder, "predict_eval.json")
+    if not os.path.isfile(path):
+        fail(path + ": missing")
+    with open(path) as f:
+        report = json.load(f)
+    try:
+        setting = report["settings"][report.get("plot_setting", 0)]
+        markers = setting["markers"]
+    except (KeyError, IndexError, TypeError):
+        fail(path + ": no settings with markers")
+    keys = ("t", "delayed_pc_mm", "reference_pc_mm", "predicted_pc_mm", "error_predicted_mm",
+            "error_delayed_mm")
+    for m, metrics in enumerate(markers):
+        c = read_columns(os.path.join(folder, "marker%d.csv" % m), keys)
+        fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 8), sharex=True)
+        top.plot(c["t"], c["delayed_pc_mm"], color="0.65", lw=1, label="measured, delayed by h")
+        top.plot(c["t"], c["reference_pc_mm"], color="0.15", lw=1.5, label="reference")
+        top.plot(c["t"], c["predicted_pc_mm"], color="tab:blue", lw=1.5, label="prediction")
+        top.set_title("marker %d: first principal component (%s)" % (m, setting_label(setting)))
+        top.set_ylabel("PC (mm)")
+        bottom.plot(c["t"], c["error_delayed_mm"], color="0.65", lw=1, label="no prediction")
+        bottom.plot(c["t"], c["error_predicted_mm"], color="tab:red", lw=1, label="prediction")
+        bottom.set_title("3D error: prediction RMS %.3f mm, nRMS %.1f %%; no prediction RMS "
+                         "%.3f mm" % (metrics["rms_mm"], metrics["nrms_percent"],
+                                      metrics["rms_delayed_mm"]))
+        bottom.set_xlabel("time (s)")
+        bottom.set_ylabel("error (mm)")
+        bottom.set_ylim(bottom=0)
+        for ax in (top, bottom):
+            ax.grid(alpha=0.3)
+            ax.legend(loc="upper right", fontsize=8)
+        fig.tight_layout()
+        out = os.path.join(folder, "marker%d.png" % m)
+        fig.savefig(out, dpi=100)
+        plt.close(fig)
+        print("plot_results: wrote " + out)
+
+
 def main(argv):
     if len(argv) < 2 or argv[1] in ("-h", "--help"):
         print(__doc__)
@@ -172,6 +249,8 @@ def main(argv):
         plot_compare(argv[3], argv[4:])
     elif cmd == "experiments" and len(argv) == 6 and argv[2] == "--runs" and argv[4] == "--out":
         plot_experiments(argv[3], argv[5])
+    elif cmd == "predict-eval" and len(argv) == 3:
+        plot_predict_eval(argv[2])
     else:
         fail("bad arguments; see --help")
     return 0

@@ -11,7 +11,7 @@ PACKAGES=(
   libopencv-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  gmsh
+  gmsh python3-gmsh
   python3-matplotlib
   iproute2 nftables procps jq parallel
   libfastrtps-dev fastddsgen  # only for tests/interop (Fast DDS against the ROS 2 mirror)
