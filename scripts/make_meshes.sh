@@ -52,5 +52,10 @@ mesh() {
 mesh liver.geo liver_700.msh msh41 -setnumber lc 14.5
 mesh liver.geo liver_2660.msh msh41 -setnumber lc 8.53
 mesh liver.geo liver_10000.msh msh41 -setnumber lc 5.18
+# the controller's model of the liver (inverse.mesh): the same surface meshed separately, with
+# another element size and other 2D / 3D algorithms (Frontal-Delaunay, HXT), so the inverse
+# simulation does not share the patient's nodes (no "inverse crime")
+mesh liver.geo liver_model_2000.msh msh41 -setnumber lc 9.5 -setnumber Mesh.Algorithm 6 \
+  -setnumber Mesh.Algorithm3D 10
 # the skin patch, written in the older format 2.2 (both formats are read)
 mesh skin_patch.geo skin_patch.msh msh22

@@ -88,11 +88,28 @@ TEST_P(LiverMeshTest, HasAdultLiverDimensionsAndValidElements) {
 INSTANTIATE_TEST_SUITE_P(Liver, LiverMeshTest,
                          ::testing::Values(LiverCase{"liver_700.msh", 600, 800},
                                            LiverCase{"liver_2660.msh", 2500, 2800},
-                                           LiverCase{"liver_10000.msh", 9000, 11000}),
+                                           LiverCase{"liver_10000.msh", 9000, 11000},
+                                           LiverCase{"liver_model_2000.msh", 1900, 2300}),
                          [](const auto& info) {
                            std::string name = info.param.file;
                            return name.substr(0, name.find('.'));
                          });
+
+// the controller's model is meshed separately from the patient's liver (no "inverse crime"):
+// the same organ, but (almost) none of its nodes where a patient node is
+TEST(LiverModelMesh, SharesNoNodesWithThePatientMesh) {
+  const TetMesh patient = ReadGmshMesh(MeshPath("liver_2660.msh"));
+  const TetMesh model = ReadGmshMesh(MeshPath("liver_model_2000.msh"));
+  int shared = 0;
+  for (int i = 0; i < model.num_nodes(); ++i) {
+    double nearest = INFINITY;
+    for (int j = 0; j < patient.num_nodes(); ++j)
+      nearest = std::min(nearest, (model.X.col(i) - patient.X.col(j)).squaredNorm());
+    if (nearest < 1e-12) ++shared;  // within 1 um
+  }
+  EXPECT_LT(shared, model.num_nodes() / 50) << shared << " of " << model.num_nodes();
+  EXPECT_GE(model.num_nodes(), 2000);
+}
 
 TEST(SkinPatch, IsAThinSlabOf144Nodes) {
   GmshFileInfo info;
