@@ -51,6 +51,8 @@ struct FemSolver::Impl {
   std::condition_variable wake;
   bool job_pending = false, job_done = false, job_ok = false, quit = false;  // under mutex
   std::chrono::microseconds worker_delay{0};  // under mutex; test hook (a late worker)
+  // under mutex; test hook: the worker starts a job only once the main thread waits for it
+  bool hold_worker = false, main_waiting = false;
   std::int64_t step_index = -1;  // index of the current step (BeginStep calls - 1)
   std::int64_t adopt_step = -1;  // step at which the job in flight is adopted; -1: none
   std::atomic<int> factorizations{0};
@@ -116,6 +118,8 @@ struct FemSolver::Impl {
       wake.wait(lock, [this] { return job_pending || quit; });
       if (quit) return;
       job_pending = false;
+      if (hold_worker) wake.wait(lock, [this] { return main_waiting || quit; });
+      if (quit) return;
       const std::chrono::microseconds delay = worker_delay;
       lock.unlock();
       if (delay.count() > 0) std::this_thread::sleep_for(delay);
@@ -273,7 +277,10 @@ struct FemSolver::Impl {
   // waits for the job in flight (if any) to finish; returns whether this thread had to wait
   bool WaitForJob(std::unique_lock<std::mutex>& lock) {
     const bool late = !job_done;
+    main_waiting = true;
+    wake.notify_all();
     wake.wait(lock, [this] { return job_done; });
+    main_waiting = false;
     job_done = false;
     adopt_step = -1;
     return late;
@@ -553,7 +560,15 @@ void FemSolver::WaitForBackgroundFactorization() {
   Impl& s = *impl_;
   if (!s.worker.joinable() || s.adopt_step < 0) return;
   std::unique_lock<std::mutex> lock(s.mutex);
+  s.main_waiting = true;
+  s.wake.notify_all();
   s.wake.wait(lock, [&s] { return s.job_done; });  // job_done stays set: adopted on schedule
+  s.main_waiting = false;
+}
+
+void FemSolver::HoldWorkerForTesting(bool hold) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->hold_worker = hold;
 }
 
 void FemSolver::SetWorkerDelayForTesting(std::chrono::microseconds delay) {

@@ -134,6 +134,10 @@ class FemSolver {
   /// Test hook: the worker sleeps this long before each factorization (simulates a loaded or
   /// slow second core; results must not change).
   void SetWorkerDelayForTesting(std::chrono::microseconds delay);
+  /// Test hook: the worker starts each factorization only when the main thread waits for it
+  /// (the adopting step, or WaitForBackgroundFactorization): a worker that is always late,
+  /// whatever the machine's load.
+  void HoldWorkerForTesting(bool hold);
 
   const FemModel& get_model() const { return model_; }
   const FemStepStats& get_last_stats() const { return stats_; }

@@ -104,9 +104,9 @@ bool Identical(const LiverRun& a, const LiverRun& b) {
 TEST(FemBackgroundRefreshTest, BitIdenticalWhateverTheWorkerTiming) {
   const FemConfig config = LiverConfig();
   LiverRun free_running(config), again(config), early(config), late(config);
-  // the late worker sleeps 300 ms before each factorization: it is not done after 3 steps, so
-  // the adopting step waits for it
-  late.solver->SetWorkerDelayForTesting(milliseconds(300));
+  // the late worker starts each factorization only when the adopting step waits for it (a
+  // sleep would be covered by the steps on a loaded machine), so every adoption waits
+  late.solver->HoldWorkerForTesting(true);
   bool all_identical = true;
   for (int step = 0; step < kSteps; ++step) {
     const FemStepStats a = free_running.Step(step);
