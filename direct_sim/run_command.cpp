@@ -106,7 +106,7 @@ int RunInProcess(const CommandLine& cli, const DirectScenario& scenario, Patient
                                  "inverse").string();
   std::filesystem::create_directories(out);
   ControllerRecorder recorder(out);
-  ControllerLoop controller(inverse.LoopConfig(), ReadGmshMesh(inverse.mesh_path));
+  ControllerLoop controller(inverse.loop, ReadGmshMesh(inverse.mesh_path));
   ControllerRunInfo cinfo;
   cinfo.scenario = inverse.source;
   cinfo.mesh = inverse.mesh_path;

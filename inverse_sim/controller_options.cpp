@@ -17,17 +17,17 @@ void AddControllerOptions(CommandLine& cli) {
 }
 
 void ApplyControllerOptions(const CommandLine& cli, InverseScenario* s) {
-  if (cli.Has("prediction")) s->prediction_enabled = cli.GetString("prediction") == "on";
-  if (cli.Has("dof")) s->control.dof = ParseSteeringDof(cli.GetString("dof"), "--dof");
+  if (cli.Has("prediction")) s->loop.prediction_enabled = cli.GetString("prediction") == "on";
+  if (cli.Has("dof")) s->loop.control.dof = ParseSteeringDof(cli.GetString("dof"), "--dof");
   if (cli.Has("young-modulus-factor")) {
-    s->model.young_modulus_factor = cli.GetDouble("young-modulus-factor");
-    ValidateAs([&] { s->model.Validate(); }, "--young-modulus-factor", "inverse.", "");
+    s->loop.model.young_modulus_factor = cli.GetDouble("young-modulus-factor");
+    ValidateAs([&] { s->loop.model.Validate(); }, "--young-modulus-factor", "inverse.", "");
   }
   if (cli.Has("localization-delay")) {
-    s->horizon.localization_delay = cli.GetDouble("localization-delay");
-    ValidateAs([&] { s->horizon.Validate(); }, "--localization-delay", "horizon.", "");
+    s->loop.horizon.localization_delay = cli.GetDouble("localization-delay");
+    ValidateAs([&] { s->loop.horizon.Validate(); }, "--localization-delay", "horizon.", "");
     ResolveSearchLead(s);
-    ValidateAs([&] { s->prediction.Validate(); }, "--localization-delay", "prediction.", "");
+    ValidateAs([&] { s->loop.prediction.Validate(); }, "--localization-delay", "prediction.", "");
   }
 }
 

@@ -31,7 +31,7 @@ ControllerRos2Options Ros2IoOptions(const CommandLine& cli, const InverseScenari
   o.idle_timeout = cli.GetDouble("ros2-idle");
   if (!(o.idle_timeout > 0)) throw InputError("--ros2-idle must be > 0 (s)");
   o.quiet = pump.quiet;
-  const SteeringPathConfig& path = scenario.LoopConfig().path;
+  const SteeringPathConfig& path = scenario.loop.path;
   o.entry_normal_W = (path.entry_W - path.target_W).normalized();
   return o;
 }
@@ -85,7 +85,7 @@ int RunInverseSim(int argc, char** argv) {
   const std::string out_dir = cli.GetString("out");
   std::filesystem::create_directories(out_dir);
   ControllerRecorder recorder(out_dir);
-  ControllerLoop loop(scenario.LoopConfig(), ReadGmshMesh(scenario.mesh_path));
+  ControllerLoop loop(scenario.loop, ReadGmshMesh(scenario.mesh_path));
   InstallInterruptHandler();
 
   ControllerRunInfo info;

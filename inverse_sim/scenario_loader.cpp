@@ -38,15 +38,15 @@ void ReadFixedVector(const YamlReader& y, const std::string& key,
 
 // the shared facts into the inverse configs: one source for both processes
 void ApplyShared(const SharedScenario& shared, InverseScenario* s) {
-  s->model.markers_W = shared.markers_W;
-  s->model.needle.length = shared.needle_length;
-  s->model.needle.radius = shared.needle_radius;
-  s->model.needle.p_FBase = shared.tool_offset_F;
-  s->model.needle.axis_F = shared.axis_F;
-  s->path.entry_W = shared.entry_W;
-  s->path.target_W = shared.target_W;
-  s->path.approach_distance = shared.approach_distance;
-  s->control.iiwa.X_WB = shared.X_WB;
+  s->loop.model.markers_W = shared.markers_W;
+  s->loop.model.needle.length = shared.needle_length;
+  s->loop.model.needle.radius = shared.needle_radius;
+  s->loop.model.needle.p_FBase = shared.tool_offset_F;
+  s->loop.model.needle.axis_F = shared.axis_F;
+  s->loop.path.entry_W = shared.entry_W;
+  s->loop.path.target_W = shared.target_W;
+  s->loop.path.approach_distance = shared.approach_distance;
+  s->loop.control.iiwa.X_WB = shared.X_WB;
 }
 
 // inverse: the liver model; the mesh path relative to the scenario file
@@ -57,12 +57,12 @@ void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario
   std::filesystem::path mesh = inv.Child("mesh").AsString();
   if (mesh.is_relative()) mesh = std::filesystem::path(path).parent_path() / mesh;
   s->mesh_path = mesh.lexically_normal().string();
-  if (inv.Has("liver")) ReadFem(inv.Child("liver"), &s->model.liver);
-  inv.Read("young_modulus_factor", &s->model.young_modulus_factor);
-  inv.Read("puncture_force", &s->model.puncture_force);
-  inv.Read("point_spacing", &s->model.point_spacing);
-  inv.Read("tip_constraint", &s->model.tip_constraint);
-  ValidateAs([&] { s->model.Validate(); }, path, "inverse.", "inverse.");
+  if (inv.Has("liver")) ReadFem(inv.Child("liver"), &s->loop.model.liver);
+  inv.Read("young_modulus_factor", &s->loop.model.young_modulus_factor);
+  inv.Read("puncture_force", &s->loop.model.puncture_force);
+  inv.Read("point_spacing", &s->loop.model.point_spacing);
+  inv.Read("tip_constraint", &s->loop.model.tip_constraint);
+  ValidateAs([&] { s->loop.model.Validate(); }, path, "inverse.", "inverse.");
 }
 
 // controller: the path, the Jacobian steps, the gains and the law
@@ -72,29 +72,29 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight"});
   std::string dof;
-  if (ctl.Read("dof", &dof)) s->control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
+  if (ctl.Read("dof", &dof)) s->loop.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
   const YamlReader p = ctl.Child("path");
   RejectKeysMovedToShared(p, "controller.path");
   p.CheckKeys({"spacing", "switch_distance"});
-  p.Read("spacing", &s->path.spacing);
-  p.Read("switch_distance", &s->path.switching.switch_distance);
-  ReadFixedVector<6>(ctl, "pose_steps", &s->control.pose_steps);
-  ReadFixedVector<7>(ctl, "joint_steps", &s->control.joint_steps);
+  p.Read("spacing", &s->loop.path.spacing);
+  p.Read("switch_distance", &s->loop.path.switching.switch_distance);
+  ReadFixedVector<6>(ctl, "pose_steps", &s->loop.control.pose_steps);
+  ReadFixedVector<7>(ctl, "joint_steps", &s->loop.control.joint_steps);
   if (ctl.Has("gains")) {
     const YamlReader g = ctl.Child("gains");
     g.CheckKeys({"position", "angle", "entry"});
-    g.Read("position", &s->control.gains.position);
-    g.Read("angle", &s->control.gains.angle);
-    g.Read("entry", &s->control.gains.entry);
+    g.Read("position", &s->loop.control.gains.position);
+    g.Read("angle", &s->loop.control.gains.angle);
+    g.Read("entry", &s->loop.control.gains.entry);
   }
-  ctl.Read("regularization", &s->control.law.regularization);
-  ctl.Read("max_translation_step", &s->control.law.max_translation_step);
-  ctl.Read("max_rotation_step", &s->control.law.max_rotation_step);
-  ctl.Read("max_joint_step", &s->control.law.max_joint_step);
-  ctl.Read("liver_entry_objective", &s->control.liver_entry_objective);
-  ctl.Read("compensate_in_flight", &s->control.compensate_in_flight);
-  ValidateAs([&] { s->path.Validate(); }, path, "controller.", "controller.");
-  ValidateAs([&] { s->control.Validate(); }, path, "controller.", "controller.");
+  ctl.Read("regularization", &s->loop.control.law.regularization);
+  ctl.Read("max_translation_step", &s->loop.control.law.max_translation_step);
+  ctl.Read("max_rotation_step", &s->loop.control.law.max_rotation_step);
+  ctl.Read("max_joint_step", &s->loop.control.law.max_joint_step);
+  ctl.Read("liver_entry_objective", &s->loop.control.liver_entry_objective);
+  ctl.Read("compensate_in_flight", &s->loop.control.compensate_in_flight);
+  ValidateAs([&] { s->loop.path.Validate(); }, path, "controller.", "controller.");
+  ValidateAs([&] { s->loop.control.Validate(); }, path, "controller.", "controller.");
 }
 
 // prediction (optional): the marker predictor and the horizon; the search lead resolved
@@ -103,27 +103,27 @@ void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScen
     pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
                     "pca_window", "search_lead", "search_interval", "horizon_window",
                     "localization_delay", "displacement", "measure_latency"});
-    pred.Read("displacement", &s->prediction_displacement);
-    pred.Read("measure_latency", &s->prediction_measure_latency);
-    pred.Read("enabled", &s->prediction_enabled);
+    pred.Read("displacement", &s->loop.prediction_displacement);
+    pred.Read("measure_latency", &s->loop.measure_latency);
+    pred.Read("enabled", &s->loop.prediction_enabled);
     std::string filter;
-    if (pred.Read("filter", &filter)) s->prediction.filter = ParsePredictionFilter(filter);
-    pred.Read("order", &s->prediction.order);
-    pred.Read("window", &s->prediction.window);
-    pred.Read("optimize_window", &s->prediction.optimize_window);
-    pred.Read("window_max", &s->prediction.window_max);
-    pred.Read("pca_window", &s->prediction.pca_window);
-    pred.Read("search_interval", &s->prediction.search_interval);
+    if (pred.Read("filter", &filter)) s->loop.prediction.filter = ParsePredictionFilter(filter);
+    pred.Read("order", &s->loop.prediction.order);
+    pred.Read("window", &s->loop.prediction.window);
+    pred.Read("optimize_window", &s->loop.prediction.optimize_window);
+    pred.Read("window_max", &s->loop.prediction.window_max);
+    pred.Read("pca_window", &s->loop.prediction.pca_window);
+    pred.Read("search_interval", &s->loop.prediction.search_interval);
     if (pred.Has("search_lead") && pred.Child("search_lead").AsString() != "auto") {
-      pred.Read("search_lead", &s->prediction.search_lead);
-      s->prediction_search_lead_auto = false;
+      pred.Read("search_lead", &s->loop.prediction.search_lead);
+      s->loop.search_lead_auto = false;
     }
-    pred.Read("horizon_window", &s->horizon.window);
-    pred.Read("localization_delay", &s->horizon.localization_delay);
+    pred.Read("horizon_window", &s->loop.horizon.window);
+    pred.Read("localization_delay", &s->loop.horizon.localization_delay);
   }
   ResolveSearchLead(s);
-  ValidateAs([&] { s->prediction.Validate(); }, path, "prediction.", "prediction.");
-  ValidateAs([&] { s->horizon.Validate(); }, path, "horizon.", "prediction.");
+  ValidateAs([&] { s->loop.prediction.Validate(); }, path, "prediction.", "prediction.");
+  ValidateAs([&] { s->loop.horizon.Validate(); }, path, "horizon.", "prediction.");
 }
 
 // the shared dds section (optional)
@@ -166,10 +166,10 @@ InverseScenario LoadInverseScenario(const std::string& path) {
 }
 
 void ResolveSearchLead(InverseScenario* scenario) {
-  if (!scenario->prediction_search_lead_auto) return;
-  const double frame = scenario->model.liver.time_step;
-  const double frames = (scenario->horizon.localization_delay + frame) / frame;
-  scenario->prediction.search_lead =
+  if (!scenario->loop.search_lead_auto) return;
+  const double frame = scenario->loop.model.liver.time_step;
+  const double frames = (scenario->loop.horizon.localization_delay + frame) / frame;
+  scenario->loop.prediction.search_lead =
       std::isfinite(frames) ? std::max(1, static_cast<int>(std::lround(frames))) : 1;
 }
 

@@ -24,7 +24,7 @@ struct Loops {
       : direct(LoadDirectScenario(kScenario)),
         inverse(LoadInverseScenario(kScenario)),
         patient(direct.LoopConfig(true), direct.liver_mesh, direct.skin_mesh),
-        controller(inverse.LoopConfig(), ReadGmshMesh(inverse.mesh_path)) {}
+        controller(inverse.loop, ReadGmshMesh(inverse.mesh_path)) {}
   DirectScenario direct;
   InverseScenario inverse;
   PatientLoop patient;

@@ -36,10 +36,10 @@ Outcome RunStill(int latency_steps, bool compensate, double seconds) {
   direct.scene.breathing.ap_amplitude = 0.0;
   direct.scene.breathing.lr_amplitude = 0.0;
   InverseScenario inverse = LoadInverseScenario(kScenario);
-  inverse.control.compensate_in_flight = compensate;
-  inverse.prediction_enabled = false;
+  inverse.loop.control.compensate_in_flight = compensate;
+  inverse.loop.prediction_enabled = false;
   PatientLoop patient(direct.LoopConfig(true), direct.liver_mesh, direct.skin_mesh);
-  ControllerLoop controller(inverse.LoopConfig(), ReadGmshMesh(inverse.mesh_path));
+  ControllerLoop controller(inverse.loop, ReadGmshMesh(inverse.mesh_path));
   LockstepTargets delay(latency_steps);
   const int steps = static_cast<int>(std::lround(seconds / direct.scene.time_step));
   const int tail = static_cast<int>(std::lround(1.0 / direct.scene.time_step));
