@@ -93,7 +93,7 @@ void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScen
   PatientSceneConfig& c = s->scene;
   node.Read("time_step", &c.time_step);
   node.Read("gravity", &c.gravity);
-  const int compliance = node.ReadChoice("constraint_compliance", {"rest", "current"});
+  const int compliance = node.ReadChoice("constraint_compliance", {"rest", "last_factor"});
   if (compliance >= 0) c.liver_rest_compliance = compliance == 0;
   const YamlReader liver = node.Child("liver");
   liver.CheckKeys(kFemKeys);

@@ -68,8 +68,24 @@ TEST(ScenarioLoaderTest, BadValuesNameTheKey) {
             "scenario.yaml: run.mode: expected one of realtime, lockstep, got 'fast'");
   EXPECT_EQ(LoadError(Edited("max_age: 0.5", "max_age: 0")),
             "scenario.yaml: safety.max_age must be > 0 (s), got 0");
+  EXPECT_EQ(LoadError(Edited("constraint_compliance: rest", "constraint_compliance: current")),
+            "scenario.yaml: patient.constraint_compliance: expected one of rest, last_factor, got "
+            "'current'");
   const std::string mesh = LoadError(Edited("liver_2660.msh", "no_such.msh"));
   EXPECT_EQ(mesh.rfind("scenario.yaml: patient.liver.mesh: ", 0), 0u) << mesh;
+}
+
+// patient.constraint_compliance selects the liver's compliance: rest (the default scenarios)
+// or last_factor
+TEST(ScenarioLoaderTest, ConstraintComplianceChoices) {
+  const auto load = [](const std::string& text) {
+    return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
+                               SourcePath("configs/scenarios"));
+  };
+  EXPECT_TRUE(load(DefaultText()).scene.liver_rest_compliance);
+  EXPECT_FALSE(
+      load(Edited("constraint_compliance: rest", "constraint_compliance: last_factor"))
+          .scene.liver_rest_compliance);
 }
 
 TEST(ScenarioLoaderTest, TyposAreUnknownKeys) {
