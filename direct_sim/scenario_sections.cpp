@@ -48,7 +48,8 @@ const std::vector<std::string> kFemKeys = {"mesh",
                                            "cg_relative_tolerance",
                                            "cg_max_iterations",
                                            "refactor_iteration_threshold",
-                                           "background_refactor"};
+                                           "background_refactor",
+                                           "refactor_adopt_delay"};
 
 void ReadFem(const YamlReader& node, FemConfig* fem) {
   node.Read("young_modulus", &fem->young_modulus);
@@ -62,6 +63,7 @@ void ReadFem(const YamlReader& node, FemConfig* fem) {
   node.Read("cg_max_iterations", &fem->cg_max_iterations);
   node.Read("refactor_iteration_threshold", &fem->refactor_iteration_threshold);
   node.Read("background_refactor", &fem->background_refactor);
+  node.Read("refactor_adopt_delay", &fem->refactor_adopt_delay);  // validated with the scene
 }
 
 TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::string* path) {
