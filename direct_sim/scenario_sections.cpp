@@ -48,7 +48,8 @@ const std::vector<std::string> kFemKeys = {"mesh",
                                            "cg_relative_tolerance",
                                            "cg_max_iterations",
                                            "refactor_iteration_threshold",
-                                           "background_refactor"};
+                                           "background_refactor",
+                                           "refactor_adopt_delay"};
 
 void ReadFem(const YamlReader& node, FemConfig* fem) {
   node.Read("young_modulus", &fem->young_modulus);
@@ -62,6 +63,7 @@ void ReadFem(const YamlReader& node, FemConfig* fem) {
   node.Read("cg_max_iterations", &fem->cg_max_iterations);
   node.Read("refactor_iteration_threshold", &fem->refactor_iteration_threshold);
   node.Read("background_refactor", &fem->background_refactor);
+  node.Read("refactor_adopt_delay", &fem->refactor_adopt_delay);  // validated with the scene
 }
 
 TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::string* path) {
@@ -93,7 +95,7 @@ void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScen
   PatientSceneConfig& c = s->scene;
   node.Read("time_step", &c.time_step);
   node.Read("gravity", &c.gravity);
-  const int compliance = node.ReadChoice("constraint_compliance", {"rest", "current"});
+  const int compliance = node.ReadChoice("constraint_compliance", {"rest", "last_factor"});
   if (compliance >= 0) c.liver_rest_compliance = compliance == 0;
   const YamlReader liver = node.Child("liver");
   liver.CheckKeys(kFemKeys);

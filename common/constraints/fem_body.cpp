@@ -25,10 +25,13 @@ FemConstraintBody::FemConstraintBody(FemSolver& solver, FemState& state, FemInve
 FemStepStats FemConstraintBody::BeginStep() {
   NSIM_CHECK(!in_step_, "BeginStep called twice without committing the step");
   const FemStepStats stats = solver_.BeginStep(state_);
-  // the reference factor's inverse stays the same until the factor is replaced, so cached
-  // compliance columns stay valid; the other operators change with every step's rotations
-  if (which_ != FemInverse::kReferenceFactor || solver_.get_factor_version() != factor_version_)
-    version_ = ++fem_version_counter;
+  // the rest factor's inverse never changes and the reference factor's only when the factor is
+  // replaced, so cached compliance columns stay valid; the other operators change with every
+  // step's rotations
+  const bool unchanged =
+      which_ == FemInverse::kRestFactor ||
+      (which_ == FemInverse::kReferenceFactor && solver_.get_factor_version() == factor_version_);
+  if (!unchanged) version_ = ++fem_version_counter;
   factor_version_ = solver_.get_factor_version();
   in_step_ = true;
   return stats;

@@ -12,7 +12,9 @@
 // kReferenceFactor (default: the last factor's exact inverse, unwarped; constant between
 // factorizations, so compliance_version() only changes when the factor does and the columns of
 // persistent constraint points are reused across steps; moves rigid translations rigidly),
-// kCachedFactor (the factor warped by nodal rotations; changes every step) or kCurrentSystem
+// kRestFactor (the rest system's exact inverse, A_0^-1: compliance_version() never changes, so
+// cached columns survive every refresh of the solver's factor, including background ones; the
+// patient liver's default), kCachedFactor (the factor warped by nodal rotations; changes every step) or kCurrentSystem
 // (exact, but one PCG per column on the PCG path). The correction is applied with the same
 // operator, so constraints are met by the corrected state in every mode.
 
@@ -31,7 +33,7 @@ class FemConstraintBody : public ConstraintBody {
                     FemInverse compliance = FemInverse::kReferenceFactor);
 
   /// Free motion of the step (FemSolver::BeginStep); starts a new compliance version unless
-  /// the operator is the unchanged reference factor.
+  /// the operator is the rest factor or the unchanged reference factor.
   FemStepStats BeginStep();
   /// Ends the step without a correction unless ApplyCorrection already committed it.
   void EndStep();

@@ -77,6 +77,15 @@ bool CholmodFactor::Factorize(const Eigen::SparseMatrix<double>& A) {
   return factorized_;
 }
 
+void CholmodFactor::CopyFrom(const CholmodFactor& other) {
+  NSIM_CHECK(other.impl_->factor != nullptr, "CholmodFactor::CopyFrom an unanalysed factor");
+  if (impl_->factor) cholmod_free_factor(&impl_->factor, &impl_->common);
+  impl_->factor = cholmod_copy_factor(other.impl_->factor, &impl_->common);
+  NSIM_CHECK(impl_->factor != nullptr, "cholmod_copy_factor failed, status ", impl_->common.status);
+  impl_->n = other.impl_->n;
+  factorized_ = other.factorized_;
+}
+
 void CholmodFactor::Solve(const Eigen::Ref<const Eigen::MatrixXd>& B,
                           Eigen::Ref<Eigen::MatrixXd> X) {
   NSIM_CHECK(factorized_, "CholmodFactor::Solve without a valid factorization");

@@ -25,6 +25,11 @@ class CholmodFactor {
   /// unusable, when A is not positive definite.
   bool Factorize(const Eigen::SparseMatrix<double>& A);
 
+  /// Makes this an exact copy of `other`'s analysis and numeric factor (cholmod_copy_factor: a
+  /// memory copy, no factorization; solves then give bit-identical results). `other` must be
+  /// analysed. Solve workspaces are not copied.
+  void CopyFrom(const CholmodFactor& other);
+
   /// X = A^-1 B for B of size n x k (any k >= 1, column-major with unit inner stride). X may not
   /// alias B. Reuses CHOLMOD workspaces between calls with the same k (no allocation then).
   /// Not thread-safe on one object: one factor per thread.

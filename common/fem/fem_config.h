@@ -54,7 +54,9 @@ struct FemConfig {
   /// destabilizes the constraint forces (fem_body_test's hanging 5.5 kPa cube: lambda
   /// oscillates and grows to 10-30x the weight with a delay of 1-3, stays within 0.4-1.9x
   /// with the in-step refresh). Safe where the compliance does not depend on the factor (the
-  /// patient liver's rest compliance, kCachedFactor, kCurrentSystem) or the body moves slowly.
+  /// patient liver's rest compliance, kRestFactor; kCachedFactor, kCurrentSystem) or the body
+  /// moves slowly. The default scenarios turn it on for the patient liver (patient.liver:
+  /// background_refactor: true with constraint_compliance: rest).
   bool background_refactor = false;
   /// Steps from the request of a background refresh to its adoption (>= 1). With 1 the factor
   /// preconditions the same steps as a refresh on the calling thread (free steps are then

@@ -24,6 +24,7 @@ struct FemSolver::Impl {
   Eigen::VectorXd mass_free;            // lumped mass per reduced DOF (kg), 3 #free
   Eigen::SparseMatrix<double> matrix;   // A_ff assembled on this thread
   std::unique_ptr<CholmodFactor> active;  // factor used by solves on this thread
+  std::unique_ptr<CholmodFactor> rest;    // factor of A_0, never replaced (kRestFactor)
   std::vector<Eigen::Matrix3d> rotations;     // element rotations of the current step
   std::vector<Matrix34d> rotated_grad;        // R_e grad_n of the current step (1/m)
   std::vector<Eigen::Matrix3d> nodal_rotations;  // current, per free node
@@ -85,11 +86,15 @@ struct FemSolver::Impl {
     zero_correction = Eigen::VectorXd::Zero(3 * n);
     for (Eigen::VectorXd* v : {&b, &dv, &r, &z, &p, &ap, &tmp}) *v = Eigen::VectorXd::Zero(ndof);
 
-    active = std::make_unique<CholmodFactor>();
-    active->Analyze(matrix);
+    // one factorization of A_0: kept as the rest factor, and copied (no second factorization)
+    // as the first cached factor, which refreshes then overwrite
+    rest = std::make_unique<CholmodFactor>();
+    rest->Analyze(matrix);
     Assemble(matrix);
-    NSIM_CHECK(active->Factorize(matrix), "rest system matrix is not positive definite");
+    NSIM_CHECK(rest->Factorize(matrix), "rest system matrix is not positive definite");
     ++factorizations;
+    active = std::make_unique<CholmodFactor>();
+    active->CopyFrom(*rest);
     factor_is_current = true;
 
     if (config.background_refactor && config.linear_solver == FemLinearSolver::kPcgCachedFactor) {
@@ -335,7 +340,9 @@ struct FemSolver::Impl {
   void SolveGathered(Eigen::MatrixXd& out, FemInverse which) {
     const Eigen::Index k = multi_in.cols();
     multi_out.resize(3 * num_free, k);
-    if (which == FemInverse::kReferenceFactor) {
+    if (which == FemInverse::kRestFactor) {
+      rest->Solve(multi_in, multi_out);
+    } else if (which == FemInverse::kReferenceFactor) {
       active->Solve(multi_in, multi_out);
     } else if (which == FemInverse::kCachedFactor || factor_is_current) {
       multi_rotated.resize(3 * num_free, k);

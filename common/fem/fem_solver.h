@@ -56,9 +56,17 @@
 //                   FemConfig::background_refactor the factor is adopted refactor_adopt_delay
 //                   steps after the state it was made from: a compliance that lags the state
 //                   (see fem_config.h for when that destabilizes constraint forces).
+//   kRestFactor     A_0^-1: the exact inverse of the rest system, from the factorization made
+//                   at construction, kept unchanged for the solver's lifetime (no refresh, in
+//                   the step or in the background, replaces it). Constant, so compliance
+//                   columns of constraint points can be cached for good (SOFA's precomputed
+//                   compliance); approximate by the element rotations since rest (K_0 instead
+//                   of K(R)). It does not depend on the refresh schedule, so it never lags the
+//                   state by refactor_adopt_delay (safe with background_refactor). Costs the
+//                   memory of one more factor (a copy made at construction).
 //
 // Threading: a FemSolver belongs to one thread (plus its own background worker when
-// FemConfig::background_refactor is set, the default on the PCG path). The worker only
+// FemConfig::background_refactor is set on the PCG path). The worker only
 // factorizes; what it factorizes (A of the step that asked) and when its factor is adopted
 // (refactor_adopt_delay steps later, at the start of BeginStep, waiting if necessary) follow
 // from the calls alone, so results do not depend on thread timing (given a BLAS that is
@@ -77,7 +85,7 @@
 namespace nsim {
 
 /// Which operator FemSolver::ApplyInverse applies; see the header comment.
-enum class FemInverse { kCurrentSystem, kCachedFactor, kReferenceFactor };
+enum class FemInverse { kCurrentSystem, kCachedFactor, kReferenceFactor, kRestFactor };
 
 /// What the last free-motion solve did.
 struct FemStepStats {
@@ -95,7 +103,8 @@ struct FemStepStats {
 
 class FemSolver {
  public:
-  /// Analyses the pattern, factorizes the rest system A_0 = (1 + h alpha) M + (h beta + h^2) K_0.
+  /// Analyses the pattern, factorizes the rest system A_0 = (1 + h alpha) M + (h beta + h^2) K_0
+  /// (kept for FemInverse::kRestFactor; the cached factor starts as a copy of it).
   /// `model` must outlive the solver.
   explicit FemSolver(const FemModel& model);
   ~FemSolver();
@@ -144,7 +153,8 @@ class FemSolver {
   /// Numeric factorizations done so far (construction included), on any thread.
   int get_factorization_count() const;
   /// Changes whenever the factor used by kCachedFactor / kReferenceFactor is replaced (a
-  /// factorization on this thread, or an adopted background one).
+  /// factorization on this thread, or an adopted background one). The kRestFactor factor never
+  /// changes.
   std::uint64_t get_factor_version() const;
   /// The reduced system matrix A_ff of the current step (assembled on demand, Calc: costs an
   /// assembly). For tests and diagnostics.

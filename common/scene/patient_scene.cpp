@@ -143,10 +143,13 @@ PatientScene::PatientScene(const PatientSceneConfig& config, const TetMesh& live
   if (!X_WF.matrix().allFinite()) throw InputError("initial flange pose must be finite");
   liver_solver_ = std::make_unique<FemSolver>(model_->liver());
   skin_solver_ = std::make_unique<FemSolver>(model_->skin());
-  liver_body_ = std::make_unique<FemConstraintBody>(*liver_solver_, state_.liver);
+  // the liver's compliance: the rest factor (constant, its cached columns survive every
+  // refresh) or the last factor (exact at the last factorization, columns recomputed when it
+  // changes)
+  liver_body_ = std::make_unique<FemConstraintBody>(
+      *liver_solver_, state_.liver,
+      config.liver_rest_compliance ? FemInverse::kRestFactor : FemInverse::kReferenceFactor);
   skin_body_ = std::make_unique<FemConstraintBody>(*skin_solver_, state_.skin);
-  if (config.liver_rest_compliance)
-    liver_rest_body_ = std::make_unique<RestComplianceBody>(*liver_body_, *liver_solver_);
   if (state_.beam_needle)
     needle_body_ = std::make_unique<BeamNeedleBody>(*model_->beam_needle(), *state_.beam_needle);
 }
@@ -241,8 +244,7 @@ SceneStepReport PatientScene::Step(const Eigen::Isometry3d& X_WF_end, double bev
   // constraints: needle-tissue rows, then liver-rib contacts
   set_.Clear();
   const int skin_index = set_.AddBody(*skin_body_);
-  const int liver_index =
-      liver_rest_body_ ? set_.AddBody(*liver_rest_body_) : set_.AddBody(*liver_body_);
+  const int liver_index = set_.AddBody(*liver_body_);
   const int needle_index = needle_body_ ? set_.AddBody(*needle_body_) : -1;
   const NeedleView view = needle_body_ ? MakeNeedleView(*needle_body_, needle_index)
                                        : MakeNeedleView(model.rigid_needle(), state_.rigid_needle);

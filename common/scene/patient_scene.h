@@ -34,7 +34,6 @@
 #include "common/needle/needle_constraint_solver.h"
 #include "common/needle/needle_tissue.h"
 #include "common/needle/rigid_needle.h"
-#include "common/scene/rest_compliance_body.h"
 #include "common/scene/scene_config.h"
 
 namespace nsim {
@@ -152,7 +151,6 @@ class PatientScene {
   PatientSceneState state_;
   std::unique_ptr<FemSolver> liver_solver_, skin_solver_;
   std::unique_ptr<FemConstraintBody> liver_body_, skin_body_;
-  std::unique_ptr<RestComplianceBody> liver_rest_body_;  // the liver's body in the set, if used
   std::unique_ptr<BeamNeedleBody> needle_body_;
   NeedleConstraintSolver solver_;
   ConstraintSet set_;

@@ -94,9 +94,11 @@ struct PatientSceneConfig {
     c.rayleigh_stiffness = 0.01;
     return c;
   }();
-  /// Compliance of the liver in the constraint solve: true = the precomputed rest compliance
-  /// (fast; see rest_compliance_body.h), false = this step's warped cached factor (one CHOLMOD
-  /// solve per constraint point and step).
+  /// Compliance of the liver in the constraint solve (YAML patient.constraint_compliance):
+  /// true = rest (FemInverse::kRestFactor: h^2 A_0^-1 from the liver solver's construction-time
+  /// factor; constant, so the columns of persistent points are solved once), false =
+  /// last_factor (FemInverse::kReferenceFactor: the liver's last factorization; the cached
+  /// columns are recomputed whenever the factor is refreshed). See common/fem/fem_solver.h.
   bool liver_rest_compliance = true;
   SkinConfig skin;
 

@@ -11,9 +11,11 @@
 // p99_ms, max_ms; tests/bench/step_times.h) over 400 steps (8 s, 2 breathing cycles) with the
 // needle in the liver and advancing at 1 cm/s, wall clock, one sequence per repetition; refresh
 // InStep (background_refactor = false: the liver's factor refresh inside the step that asks) or
-// Background (background_refactor = true: factorized on a worker, adopted 3 steps later); compliance Rest (the
-// scenario's, constant: a refresh costs no compliance columns) or Current (the liver's factor:
-// a swap invalidates the cached columns, recomputed in the swap step, swap_step_ms).
+// Background (background_refactor = true: factorized on a worker, adopted refactor_adopt_delay
+// steps later); compliance Rest (constraint_compliance: rest, the scenario's: A_0^-1, constant,
+// a refresh costs no compliance columns) or LastFactor (constraint_compliance: last_factor: the
+// liver's last factor; a swap invalidates the cached columns, recomputed in the swap step,
+// swap_step_ms).
 
 #include <benchmark/benchmark.h>
 
@@ -140,7 +142,7 @@ void RegisterSequences() {
     for (bool background : {false, true}) {
       const std::string name = std::string("DirectSceneSequence/") +
                                (background ? "Background" : "InStep") + "/" +
-                               (rest ? "Rest" : "Current") + "/2660";
+                               (rest ? "Rest" : "LastFactor") + "/2660";
       benchmark::RegisterBenchmark(name.c_str(), [background, rest](benchmark::State& s) {
         DirectSceneSequence(s, background, rest);
       })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();

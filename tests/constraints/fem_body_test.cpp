@@ -2,9 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
 
 #include "common/constraints/constraint_solver.h"
+#include "common/fem/corotational.h"
 #include "common/fem/fem_model.h"
 #include "common/mesh/tet_mesh.h"
 
@@ -31,10 +33,11 @@ std::vector<int> NodesAtZ(const TetMesh& mesh, double z) {
 }
 
 // a barycentric point inside a FEM box follows a moving kinematic target; the box hangs from it
-void RunHold(FemLinearSolver linear_solver, FemInverse inverse) {
+void RunHold(FemLinearSolver linear_solver, FemInverse inverse, bool background = false) {
   const TetMesh mesh = MakeBoxTetMesh(Eigen::Vector3i(4, 4, 4), Eigen::Vector3d(0.05, 0.05, 0.05));
   FemConfig config;
   config.linear_solver = linear_solver;
+  config.background_refactor = background;
   config.time_step = 0.02;
   config.rayleigh_mass = 1.0;
   const FemModel model(mesh, config);
@@ -83,6 +86,87 @@ TEST(FemConstraintBodyTest, BilateralHoldsFemPointPcgCurrentSystem) {
 
 TEST(FemConstraintBodyTest, BilateralHoldsFemPointPcgReferenceFactor) {
   RunHold(FemLinearSolver::kPcgCachedFactor, FemInverse::kReferenceFactor);
+}
+
+// the rest compliance with the factor refreshed in the background (adopted 3 steps late): it does
+// not depend on the refresh schedule, so the hold stays stable (the reference factor's, which
+// lags by the delay, does not: see fem_config.h)
+TEST(FemConstraintBodyTest, BilateralHoldsFemPointPcgRestFactor) {
+  RunHold(FemLinearSolver::kPcgCachedFactor, FemInverse::kRestFactor);
+  RunHold(FemLinearSolver::kPcgCachedFactor, FemInverse::kRestFactor, /*background=*/true);
+}
+
+// kRestFactor is h^2 A_0^-1 of the rest system, whatever the body did since: checked against a
+// dense solve of A_0 = (1 + h alpha) M + (h beta + h^2) K_0 assembled here from the element
+// stiffnesses at rest (R = I), after steps that deform the block and refresh the solver's
+// factor (in the step and in the background); its version never changes, so a persistent
+// point's columns are solved once
+TEST(FemConstraintBodyTest, RestFactorComplianceIsTheDenseRestInverse) {
+  const TetMesh mesh = MakeBoxTetMesh(Eigen::Vector3i(4, 3, 5), Eigen::Vector3d(0.04, 0.03, 0.05));
+  for (const bool background : {false, true}) {
+    SCOPED_TRACE(background);
+    FemConfig config;
+    config.rayleigh_mass = 0.5;
+    config.rayleigh_stiffness = 0.02;
+    config.refactor_iteration_threshold = 1;  // refresh often
+    config.background_refactor = background;
+    const FemModel model(mesh, config, {NodesAtZ(mesh, 0.0), {}});
+    FemSolver fem(model);
+    FemState state(model);
+    FemConstraintBody body(fem, state, FemInverse::kRestFactor);
+    const int n = model.num_nodes(), nf = model.num_free_nodes();
+    const double h = config.time_step;
+    Eigen::MatrixXd A0 = Eigen::MatrixXd::Zero(3 * n, 3 * n);
+    for (int i = 0; i < n; ++i)
+      A0.block<3, 3>(3 * i, 3 * i) +=
+          (1 + h * 0.5) * model.get_lumped_mass()[i] * Eigen::Matrix3d::Identity();
+    for (int e = 0; e < model.num_tets(); ++e) {
+      const Matrix12d K = CalcCorotatedStiffness(model.get_rest_shapes()[e], model.get_lame(),
+                                                 Eigen::Matrix3d::Identity());
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b)
+          A0.block<3, 3>(3 * mesh.tets[e][a], 3 * mesh.tets[e][b]) +=
+              (h * 0.02 + h * h) * K.block<3, 3>(3 * a, 3 * b);
+    }
+    Eigen::MatrixXd A0_ff(3 * nf, 3 * nf);
+    const std::vector<int>& free = model.get_free_nodes();
+    for (int k = 0; k < nf; ++k)
+      for (int j = 0; j < nf; ++j)
+        A0_ff.block<3, 3>(3 * k, 3 * j) = A0.block<3, 3>(3 * free[k], 3 * free[j]);
+    const Eigen::LDLT<Eigen::MatrixXd> dense(A0_ff);
+    // a barycentric point and a node (6 columns), plus one column on a fixed node (ignored)
+    const int tet = mesh.num_tets() - 5;
+    const Eigen::Vector4d bary(0.4, 0.3, 0.2, 0.1);
+    Eigen::SparseMatrix<double> forces(3 * n, 7);
+    for (int c = 0; c < 3; ++c) {
+      for (int a = 0; a < 4; ++a) forces.insert(3 * mesh.tets[tet][a] + c, c) = bary[a];
+      forces.insert(3 * free[nf / 2] + c, 3 + c) = 1.0;
+    }
+    forces.insert(3 * model.get_fixed_nodes()[0] + 2, 6) = 1.0;
+    forces.makeCompressed();
+    const Eigen::MatrixXd F = Eigen::MatrixXd(forces);
+    Eigen::MatrixXd F_f(3 * nf, 7);
+    for (int k = 0; k < nf; ++k) F_f.middleRows<3>(3 * k) = F.middleRows<3>(3 * free[k]);
+    const Eigen::MatrixXd expected_f = h * h * dense.solve(F_f);
+    const std::uint64_t version = body.compliance_version();
+    const std::uint64_t factor_at_start = fem.get_factor_version();
+    Eigen::MatrixXd C;
+    for (int step = 0; step < 40; ++step) {
+      // a sideways push on the top face: the block bends, the factor is refreshed
+      state.external_forces.setZero();
+      for (int i : NodesAtZ(mesh, 0.05)) state.external_forces(0, i) = 0.05;
+      body.BeginStep();
+      body.ApplyCompliance(forces, C);
+      ASSERT_EQ(body.compliance_version(), version);
+      for (int i : model.get_dirichlet_nodes()) ASSERT_EQ(C.middleRows<3>(3 * i).norm(), 0.0);
+      Eigen::MatrixXd C_f(3 * nf, 7);
+      for (int k = 0; k < nf; ++k) C_f.middleRows<3>(3 * k) = C.middleRows<3>(3 * free[k]);
+      ASSERT_LT((C_f - expected_f).norm(), 1e-10 * expected_f.norm()) << "step " << step;
+      body.EndStep();
+    }
+    EXPECT_NE(fem.get_factor_version(), factor_at_start);  // the solver's own factor moved on
+    EXPECT_GT((state.x - model.get_rest_positions()).colwise().norm().maxCoeff(), 1e-3);
+  }
 }
 
 // the reference factor's compliance is constant between factorizations: a persistent point's

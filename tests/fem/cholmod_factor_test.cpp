@@ -68,5 +68,31 @@ TEST(CholmodFactorTest, RefactorizesNewValuesAndDetectsIndefinite) {
   EXPECT_FALSE(factor.is_factorized());
 }
 
+// a copy solves bit-identically to the original, and refactorizing the copy with other values
+// leaves the original as it was
+TEST(CholmodFactorTest, CopyIsIndependentAndExact) {
+  Eigen::SparseMatrix<double> A = RandomSpd(300, 0.5, 3);
+  CholmodFactor original;
+  original.Analyze(A);
+  ASSERT_TRUE(original.Factorize(A));
+  CholmodFactor copy;
+  copy.CopyFrom(original);
+  ASSERT_TRUE(copy.is_factorized());
+  const Eigen::MatrixXd B = Eigen::MatrixXd::Random(300, 4);
+  Eigen::MatrixXd X(300, 4), X_copy(300, 4);
+  original.Solve(B, X);
+  copy.Solve(B, X_copy);
+  EXPECT_EQ((X - X_copy).cwiseAbs().maxCoeff(), 0.0);
+  const Eigen::SparseMatrix<double> A_original = A;
+  for (int k = 0; k < A.nonZeros(); ++k) A.valuePtr()[k] *= 2.0;
+  ASSERT_TRUE(copy.Factorize(A));
+  copy.Solve(B, X_copy);
+  EXPECT_LT((A * X_copy - B).norm(), kSolveTol * B.norm());
+  Eigen::MatrixXd X_again(300, 4);
+  original.Solve(B, X_again);
+  EXPECT_EQ((X - X_again).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LT((A_original * X_again - B).norm(), kSolveTol * B.norm());
+}
+
 }  // namespace
 }  // namespace nsim

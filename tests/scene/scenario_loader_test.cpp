@@ -50,6 +50,9 @@ TEST(ScenarioLoaderTest, LoadsTheDefaultScenario) {
   EXPECT_EQ(s.scene.markers_W.size(), 5u);
   EXPECT_EQ(s.scene.breathing.random_seed, 1u);  // from the top-level random_seed
   EXPECT_EQ(s.scene.needle.kind, NeedleKind::kRigid);
+  EXPECT_TRUE(s.scene.liver.background_refactor);
+  EXPECT_EQ(s.scene.liver.refactor_adopt_delay, 3);
+  EXPECT_TRUE(s.scene.liver_rest_compliance);
   EXPECT_EQ(s.robot.kind, RobotKind::kCartesian);
   EXPECT_EQ(s.run.mode, RunMode::kRealtime);
   EXPECT_EQ(s.safety.max_linear_speed, s.robot.cartesian.max_linear_speed);  // gate = robot limits
@@ -68,8 +71,28 @@ TEST(ScenarioLoaderTest, BadValuesNameTheKey) {
             "scenario.yaml: run.mode: expected one of realtime, lockstep, got 'fast'");
   EXPECT_EQ(LoadError(Edited("max_age: 0.5", "max_age: 0")),
             "scenario.yaml: safety.max_age must be > 0 (s), got 0");
+  EXPECT_EQ(LoadError(Edited("refactor_adopt_delay: 3", "refactor_adopt_delay: 0")),
+            "scenario.yaml: patient.liver.refactor_adopt_delay must be >= 1 (steps), got 0");
+  EXPECT_EQ(LoadError(Edited("refactor_adopt_delay: 3", "refactor_adopt_delay: 1.5")),
+            "scenario.yaml: patient.liver.refactor_adopt_delay: expected an integer, got '1.5'");
+  EXPECT_EQ(LoadError(Edited("constraint_compliance: rest", "constraint_compliance: current")),
+            "scenario.yaml: patient.constraint_compliance: expected one of rest, last_factor, got "
+            "'current'");
   const std::string mesh = LoadError(Edited("liver_2660.msh", "no_such.msh"));
   EXPECT_EQ(mesh.rfind("scenario.yaml: patient.liver.mesh: ", 0), 0u) << mesh;
+}
+
+// patient.constraint_compliance selects the liver's compliance: rest (the default scenarios)
+// or last_factor
+TEST(ScenarioLoaderTest, ConstraintComplianceChoices) {
+  const auto load = [](const std::string& text) {
+    return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
+                               SourcePath("configs/scenarios"));
+  };
+  EXPECT_TRUE(load(DefaultText()).scene.liver_rest_compliance);
+  EXPECT_FALSE(
+      load(Edited("constraint_compliance: rest", "constraint_compliance: last_factor"))
+          .scene.liver_rest_compliance);
 }
 
 TEST(ScenarioLoaderTest, TyposAreUnknownKeys) {
