@@ -1,5 +1,6 @@
 #include "inverse_sim/run_command.h"
 
+#include <cstdio>
 #include <filesystem>
 
 #include "common/core/cli.h"
@@ -27,7 +28,10 @@ int RunInverseSim(int argc, char** argv) {
               {"realtime", "lockstep"})
       .Option("timeout", "S", "give up after S seconds in all", "3600")
       .Option("start-timeout", "S", "give up if direct_sim is not seen within S seconds", "60")
-      .Flag("quiet", "no progress lines");
+      .Flag("quiet", "no progress lines")
+      .Flag("check",
+            "only read and check the scenario, its mesh and the options, then exit (0: valid, "
+            "2: the reason)");
   AddControllerOptions(cli);
   transport::AddTransportOptions(cli);
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
@@ -39,14 +43,21 @@ int RunInverseSim(int argc, char** argv) {
   options.lockstep = scenario.lockstep;
   options.timeout = cli.GetDouble("timeout");
   options.start_timeout = cli.GetDouble("start-timeout");
-  if (!(options.timeout > 0) || !(options.start_timeout > 0))
-    throw InputError("--timeout and --start-timeout must be > 0 (s)");
+  // a day at most: the longest run is an hour of simulated time
+  if (!(options.timeout > 0 && options.timeout <= 86400) ||
+      !(options.start_timeout > 0 && options.start_timeout <= 86400))
+    throw InputError("--timeout and --start-timeout must be in (0, 86400] (s)");
   options.quiet = cli.GetFlag("quiet");
   options.scenario_hash = scenario.scenario_hash;
   options.transport = transport::TransportFromCli(cli);
   if (!cli.Given("domain")) options.transport.domain_id = scenario.dds_domain;
   if (!cli.Given("partition")) options.transport.partition = scenario.dds_partition;
   options.transport.Validate();
+  if (cli.GetFlag("check")) {
+    ReadGmshMesh(scenario.mesh_path);
+    if (!options.quiet) std::printf("run: %s is valid\n", cli.GetString("config").c_str());
+    return 0;
+  }
 
   const std::string out_dir = cli.GetString("out");
   std::filesystem::create_directories(out_dir);
