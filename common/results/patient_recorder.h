@@ -7,12 +7,13 @@
 // step-time statistics, rates, punctures, the gate's counts, the loop latency and the
 // settings.
 
-#include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "common/core/line_file.h"
 #include "common/scene/patient_loop.h"
 
 namespace nsim {
@@ -43,8 +44,8 @@ class PatientRecorder {
   /// the steady state; 20 % of a 20 s run is one breathing period).
   static constexpr double kSteadyFraction = 0.2;
 
-  /// Opens DIR/timeseries.csv and DIR/step_times.csv (InputError naming the file when it
-  /// cannot).
+  /// Opens DIR/timeseries.csv.partial and DIR/step_times.csv.partial (InputError naming the
+  /// file when it cannot); rows are written whole (common/core/line_file.h).
   explicit PatientRecorder(const std::string& out_dir);
 
   /// A published frame: its row of timeseries.csv and the error statistics.
@@ -54,7 +55,9 @@ class PatientRecorder {
 
   /// direct_sim's summary.json.
   nlohmann::json Summary(const PatientLoop& loop, const PatientRunInfo& info) const;
-  /// Writes Summary() to DIR/summary.json atomically.
+  /// Renames the two CSVs' partial files onto DIR/timeseries.csv and DIR/step_times.csv and
+  /// writes Summary() to DIR/summary.json atomically: a run that never gets here (killed,
+  /// failed) leaves an earlier run's files in DIR as they were.
   void WriteSummary(const PatientLoop& loop, const PatientRunInfo& info) const;
 
   double median_step_ms() const;
@@ -63,7 +66,7 @@ class PatientRecorder {
 
  private:
   std::string out_dir_;
-  std::ofstream csv_, steps_csv_;
+  std::unique_ptr<LineFile> csv_, steps_csv_;
   std::vector<std::pair<double, double>> distance_log_;  // (t, true tip-target distance (m))
   std::vector<double> step_ms_;
   double last_distance_ = 0.0, min_distance_ = INFINITY, max_rib_penetration_ = 0.0;
