@@ -12,7 +12,7 @@
 
 namespace nsim {
 
-LineFile::LineFile(const std::string& path) : path_(path) {
+LineFile::LineFile(const std::string& path, Mode mode) : path_(path), mode_(mode) {
   fd_ = ::open(partial_path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd_ < 0)
     throw InputError(Str(partial_path(), ": cannot open for writing: ", std::strerror(errno)));
@@ -43,7 +43,7 @@ void LineFile::Commit() {
   fd_ = -1;
   if (::fsync(fd) != 0 || ::close(fd) != 0)
     throw std::runtime_error(Str(partial_path(), ": cannot flush: ", std::strerror(errno)));
-  if (std::rename(partial_path().c_str(), path_.c_str()) != 0)
+  if (mode_ == Mode::kPartial && std::rename(partial_path().c_str(), path_.c_str()) != 0)
     throw std::runtime_error(
         Str(partial_path(), ": cannot rename to ", path_, ": ", std::strerror(errno)));
 }

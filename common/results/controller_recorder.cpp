@@ -18,7 +18,7 @@ json Timing(const TimingStat& s) {
 }  // namespace
 
 ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(out_dir) {
-  csv_ = std::make_unique<LineFile>(out_dir_ + "/inverse.csv");
+  csv_ = std::make_unique<LineFile>(out_dir_ + "/inverse.csv", LineFile::Mode::kInPlace);
   csv_->WriteLine(
       "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
       "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms");
@@ -92,7 +92,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
 
 void ControllerRecorder::WriteSummary(const ControllerLoop& loop,
                                       const ControllerRunInfo& info) const {
-  csv_->Commit();  // inverse.csv.partial -> inverse.csv, then the summary that describes it
+  csv_->Commit();  // inverse.csv flushed and closed, then the summary that describes it
   WriteFileAtomically(out_dir_ + "/summary.json", Summary(loop, info).dump(2) + "\n");
 }
 

@@ -28,16 +28,15 @@ struct ControllerRunInfo {
 
 class ControllerRecorder {
  public:
-  /// Opens DIR/inverse.csv.partial (InputError naming the file when it cannot); rows are
-  /// written whole (common/core/line_file.h).
+  /// Opens DIR/inverse.csv (InputError naming the file when it cannot); each row is written
+  /// whole with one write (common/core/line_file.h).
   explicit ControllerRecorder(const std::string& out_dir);
 
   /// The last answered frame of `loop` (its last_record()).
   void AddAnswer(const ControllerLoop& loop);
 
   nlohmann::json Summary(const ControllerLoop& loop, const ControllerRunInfo& info) const;
-  /// Renames DIR/inverse.csv.partial onto DIR/inverse.csv and writes Summary() to
-  /// DIR/summary.json atomically: a run that never gets here leaves an earlier run's files.
+  /// Flushes and closes DIR/inverse.csv and writes Summary() to DIR/summary.json atomically.
   void WriteSummary(const ControllerLoop& loop, const ControllerRunInfo& info) const;
 
  private:

@@ -29,7 +29,7 @@ json StatsMs(const std::vector<double>& ms) {
 
 std::unique_ptr<LineFile> Open(const std::string& path) {
   try {
-    return std::make_unique<LineFile>(path);
+    return std::make_unique<LineFile>(path, LineFile::Mode::kInPlace);
   } catch (const InputError& e) {
     throw InputError(Str("--out: ", e.what()));
   }
@@ -189,7 +189,7 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
 }
 
 void PatientRecorder::WriteSummary(const PatientLoop& loop, const PatientRunInfo& info) const {
-  // the CSVs replace an earlier run's only now, then the summary that describes them
+  // the CSVs flushed and closed, then the summary that describes them
   csv_->Commit();
   steps_csv_->Commit();
   WriteFileAtomically(out_dir_ + "/summary.json", Summary(loop, info).dump(2) + "\n");

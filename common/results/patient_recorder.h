@@ -44,8 +44,8 @@ class PatientRecorder {
   /// the steady state; 20 % of a 20 s run is one breathing period).
   static constexpr double kSteadyFraction = 0.2;
 
-  /// Opens DIR/timeseries.csv.partial and DIR/step_times.csv.partial (InputError naming the
-  /// file when it cannot); rows are written whole (common/core/line_file.h).
+  /// Opens DIR/timeseries.csv and DIR/step_times.csv (InputError naming the file when it
+  /// cannot); each row is written whole with one write (common/core/line_file.h).
   explicit PatientRecorder(const std::string& out_dir);
 
   /// A published frame: its row of timeseries.csv and the error statistics.
@@ -55,9 +55,7 @@ class PatientRecorder {
 
   /// direct_sim's summary.json.
   nlohmann::json Summary(const PatientLoop& loop, const PatientRunInfo& info) const;
-  /// Renames the two CSVs' partial files onto DIR/timeseries.csv and DIR/step_times.csv and
-  /// writes Summary() to DIR/summary.json atomically: a run that never gets here (killed,
-  /// failed) leaves an earlier run's files in DIR as they were.
+  /// Flushes and closes the two CSVs and writes Summary() to DIR/summary.json atomically.
   void WriteSummary(const PatientLoop& loop, const PatientRunInfo& info) const;
 
   double median_step_ms() const;

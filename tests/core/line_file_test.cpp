@@ -56,5 +56,20 @@ TEST(LineFileTest, AnUnwritablePathIsAnInputErrorNamingIt) {
   }
 }
 
+TEST(LineFileTest, InPlaceRowsAreReadableWhileWriting) {
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("line_file_in_place_" + std::to_string(getpid()) + ".csv"))
+                               .string();
+  LineFile file(path, LineFile::Mode::kInPlace);
+  file.WriteLine("a,b");
+  EXPECT_EQ(ReadAll(path), "a,b\n");  // no buffer: a reader (or a kill) sees whole rows
+  file.WriteLine("1,2");
+  EXPECT_EQ(ReadAll(path), "a,b\n1,2\n");
+  file.Commit();
+  EXPECT_EQ(ReadAll(path), "a,b\n1,2\n");
+  EXPECT_FALSE(std::filesystem::exists(path + ".partial"));
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace nsim
