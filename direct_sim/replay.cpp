@@ -20,6 +20,25 @@ namespace nsim {
 namespace {
 
 constexpr double kSettleTimeout_s = 1.0;
+// Waits are taken in slices of at most this (s), checking for SIGINT/SIGTERM between them, so
+// a replay stops within 0.1 s of being asked to, whatever the stream's timing.
+constexpr double kSleepSlice_s = 0.1;
+// The longest pause between two frames of a replayed stream: a recorded stream with a few
+// lost frames has gaps of 2..3 frame intervals; 100 intervals, or 10 s (more than two
+// breathing cycles), is a broken time column, not a recording (a 1e6 s gap would sleep for
+// days).
+constexpr double kMaxGapRatio = 100.0;
+constexpr double kMaxGap_s = 10.0;
+
+// sleeps until `due` (monotonic s) in slices; false when interrupted first
+bool SleepUntilOrInterrupted(double due) {
+  while (!InterruptRequested()) {
+    const double left = due - MonotonicSeconds();
+    if (left <= 0) return true;
+    SleepUntilMonotonic(MonotonicSeconds() + std::min(left, kSleepSlice_s));
+  }
+  return false;
+}
 
 // the command-line settings of a replay
 struct ReplayOptions {
@@ -70,7 +89,16 @@ class Replayer {
   // false (after a message) when no reader came in time
   bool WaitForReaders() {
     const double timeout = options_.wait_timeout;
-    if (!markers_.WaitForReaders(static_cast<int>(options_.wait_readers), timeout)) {
+    const double give_up = MonotonicSeconds() + timeout;
+    bool matched = false;
+    while (!matched && !InterruptRequested() && MonotonicSeconds() < give_up)
+      matched = markers_.WaitForReaders(static_cast<int>(options_.wait_readers),
+                                        std::min(kSleepSlice_s, give_up - MonotonicSeconds()));
+    if (InterruptRequested()) {
+      std::cerr << "direct_sim replay: interrupted while waiting for readers\n";
+      return false;
+    }
+    if (!matched) {
       std::cerr
           << "direct_sim replay: no SensorFrame reader after " << timeout
           << " s (is inverse_sim running with the same --domain, --partition and DDS config?)\n";
@@ -112,7 +140,7 @@ class Replayer {
     for (size_t k = 0; k < frames.size(); ++k) {
       if (InterruptRequested()) break;
       const double due = start_ + (frames[k].stamp.sim_time - t0) / options_.rate_scale;
-      SleepUntilMonotonic(due);
+      if (!SleepUntilOrInterrupted(due)) break;
       max_lateness_ = std::max(max_lateness_, MonotonicSeconds() - due);
       SensorFrame frame;
       frame.stamp = frames[k].stamp;
@@ -183,12 +211,18 @@ int RunReplay(int argc, char** argv) {
   ReplayOptions options;
   options.markers = cli.GetString("markers");
   options.rate_scale = cli.GetDouble("rate-scale");
+  // 100 times slower or 1e4 times faster than recorded: beyond that a replay is a stall or
+  // a burst, not a stream at its timing
   if (!(options.rate_scale > 0))
     throw InputError(Str("--rate-scale must be > 0, got ", options.rate_scale));
+  if (!(options.rate_scale >= 0.01 && options.rate_scale <= 1e4))
+    throw InputError(Str("--rate-scale must be in [0.01, 10000], got ", options.rate_scale));
   options.wait_readers = cli.GetInt("wait-readers");
-  if (options.wait_readers < 0)
-    throw InputError(Str("--wait-readers must be >= 0, got ", options.wait_readers));
+  if (options.wait_readers < 0 || options.wait_readers > 1000)
+    throw InputError(Str("--wait-readers must be in [0, 1000], got ", options.wait_readers));
   options.wait_timeout = cli.GetDouble("wait-timeout");
+  if (!(options.wait_timeout >= 0 && options.wait_timeout <= 3600))
+    throw InputError(Str("--wait-timeout must be in [0, 3600] (s), got ", options.wait_timeout));
   options.quiet = cli.GetFlag("quiet");
   options.ros2_wait = cli.GetInt("ros2-wait");
   if (options.ros2_wait < 0)
@@ -197,6 +231,7 @@ int RunReplay(int argc, char** argv) {
     throw InputError("--ros2-wait needs --ros2");
 
   const MarkerStream stream = ReadMarkerCsv(options.markers);
+  CheckMarkerSampling(stream, options.markers, kMaxGapRatio, kMaxGap_s);
   if (stream.num_markers > 64)
     throw InputError(
         Str("a SensorFrame carries at most 64 markers, the stream has ", stream.num_markers));

@@ -1,6 +1,7 @@
 #include "direct_sim/run_command.h"
 
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <memory>
@@ -49,6 +50,9 @@ void DeclareOptions(CommandLine& cli) {
       .Option("controller-out", "DIR",
               "with --in-process: the controller's results folder (default DIR/../inverse)")
       .Flag("no-video", "no view (no window, no video, no PNG)")
+      .Flag("check",
+            "only read and check the scenario, its meshes and the options, then exit (0: valid, "
+            "2: the reason)")
       .Flag("quiet", "no progress lines");
   AddControllerOptions(cli);
   transport::AddTransportOptions(cli);
@@ -71,8 +75,9 @@ void ApplyOptions(const CommandLine& cli, DirectScenario* s) {
   }
   if (cli.Has("young-modulus")) {
     const double e = cli.GetDouble("young-modulus");
-    if (!(e > 0) || !std::isfinite(e))
-      throw InputError(Str("--young-modulus must be > 0 (Pa), got ", e));
+    // the stiffest solid (diamond) is 1.2e12 Pa
+    if (!(e > 0) || !std::isfinite(e) || e > 1e12)
+      throw InputError(Str("--young-modulus must be in (0, 1e12] (Pa), got ", e));
     s->scene.liver.young_modulus = e;
   }
   if (cli.GetFlag("no-video")) s->run.video = false;
@@ -80,6 +85,7 @@ void ApplyOptions(const CommandLine& cli, DirectScenario* s) {
   const double steps = s->run.duration / s->scene.time_step;
   if (steps < 0.5) throw InputError(Str("run.duration must cover at least one step of ",
                                         s->scene.time_step, " s"));
+  ValidateAs([&] { CheckStepCount(s->run.duration, s->scene.time_step); }, "--duration", "", "");
 }
 
 PatientRunInfo MakeInfo(const DirectScenario& s, bool in_process) {
@@ -138,6 +144,11 @@ int RunDirect(int argc, char** argv) {
   tc.Validate();
   const std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
   if (ros2 && in_process) throw InputError("--ros2 needs the DDS path: not with --in-process");
+  if (cli.GetFlag("check")) {
+    if (in_process) LoadInverseScenario(cli.GetString("config"));
+    if (!cli.GetFlag("quiet")) std::printf("run: %s is valid\n", cli.GetString("config").c_str());
+    return 0;
+  }
   const std::string out_dir = cli.Has("out") ? cli.GetString("out") : DefaultOutDir();
   InstallInterruptHandler();
 

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/scenario/shared_scenario.h"
 #include "direct_sim/scenario_sections.h"
@@ -59,9 +60,30 @@ void ValidateScenario(const DirectScenario& s) {
   ValidateAs([&] { s.view.Validate(); }, src, "", "");
   if (s.dds_domain < 0 || s.dds_domain > 232)
     throw InputError(Str(src, ": dds.domain must be in [0, 232], got ", s.dds_domain));
+  ValidateAs([&] { CheckName(s.dds_partition, kMaxPartitionLength, "dds.partition"); }, src, "",
+             "");
+  ValidateAs([&] { CheckInsertion(s.insertion); }, src, "", "");
+  ValidateAs([&] { CheckStepCount(s.run.duration, s.scene.time_step); }, src, "", "");
 }
 
 }  // namespace
+
+void CheckInsertion(const InsertionConfig& insertion) {
+  // needle insertion speeds are 1..100 mm/s (a biopsy gun fires at ~ 10 m/s but is no robot):
+  // 0.5 m/s is above any robot in tissue; overshoot and approach are cm, never half a metre
+  CheckAtMost(insertion.speed, 0.5, "insertion.speed", "m/s");
+  CheckRange(insertion.overshoot, -0.5, 0.5, "insertion.overshoot", "m");
+  CheckAtMost(insertion.approach_distance, 1.0, "insertion.approach_distance", "m");
+}
+
+void CheckStepCount(double duration, double time_step) {
+  // one run at most 1e6 physics steps: 5.5 h of simulated time at 20 ms, over 2 h of wall
+  // time at the 8 ms of a step of the 2656-node liver
+  const double steps = duration / time_step;
+  if (!(steps <= kMaxRunSteps))
+    throw InputError(Str("run.duration / patient.time_step must be at most ", kMaxRunSteps,
+                         " steps, got ", duration, " s / ", time_step, " s = ", steps, " steps"));
+}
 
 void RunConfig::Validate() const {
   if (!(duration > 0) || !std::isfinite(duration))
@@ -76,6 +98,17 @@ void RunConfig::Validate() const {
   if (view_every < 1) throw InputError(Str("run.view_every must be >= 1, got ", view_every));
   if (!(status_period > 0))
     throw InputError(Str("run.status_period must be > 0 (s), got ", status_period));
+  // Upper bounds: a simulated hour is 180,000 steps at 20 ms (the step count is bounded
+  // separately); a latency of 1000 steps is 20 s, more than the run's breathing cycles; a
+  // peer silent for 10 min (lockstep) or an hour (start) is gone; statuses every minute at
+  // least; a snapshot or view every 1e6 steps is never.
+  CheckAtMost(duration, 3600.0, "run.duration", "s");
+  CheckAtMost(latency_steps, 1000, "run.latency_steps", "steps");
+  CheckAtMost(lockstep_timeout, 600.0, "run.lockstep_timeout", "s");
+  CheckAtMost(start_timeout, 3600.0, "run.start_timeout", "s");
+  CheckAtMost(vtk_every, 1e6, "run.vtk_every", "steps");
+  CheckAtMost(view_every, 1e6, "run.view_every", "steps");
+  CheckAtMost(status_period, 60.0, "run.status_period", "s");
 }
 
 const std::vector<std::string>& OtherProcessSections() {

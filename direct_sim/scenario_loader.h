@@ -69,6 +69,16 @@ struct DirectScenario {
   }
 };
 
+/// The most physics steps one run may take (run.duration / patient.time_step).
+constexpr double kMaxRunSteps = 1e6;
+
+/// Throws InputError "run.duration / patient.time_step must be at most 1e6 steps, ...".
+void CheckStepCount(double duration, double time_step);
+
+/// The upper bounds of the insertion settings (InsertionConfig::Validate checks the lower
+/// ones): InputError "insertion.<key> ...".
+void CheckInsertion(const InsertionConfig& insertion);
+
 /// Top-level sections of the other process, accepted and skipped.
 const std::vector<std::string>& OtherProcessSections();
 

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/scene/patient_scene.h"
 
@@ -188,6 +189,15 @@ void ViewerConfig::Validate() const {
   if (!(ortho_height > 0))
     throw InputError(Str("view.ortho_height must be > 0 (m), got ", ortho_height));
   if (!(fps > 0)) throw InputError(Str("view.fps must be > 0 (Hz), got ", fps));
+  // an 8K frame (7680 x 4320) is the largest a video writer takes; 240 fps the fastest
+  // display; 100 m of orthographic view is no scene of a patient
+  if (width > 8192 || height > 8192)
+    throw InputError(
+        Str("view.width and view.height must be <= 8192 (px), got ", width, " x ", height));
+  CheckAtMost(fps, 240.0, "view.fps", "Hz");
+  CheckAtMost(ortho_height, 100.0, "view.ortho_height", "m");
+  CheckNormAtMost(eye, 100.0, "view.eye", "m");
+  CheckNormAtMost(look_at, 100.0, "view.look_at", "m");
 }
 
 SceneRenderer::SceneRenderer(const ViewerConfig& config) : config_(config) {

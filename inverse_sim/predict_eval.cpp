@@ -213,6 +213,11 @@ int RunPredictEval(int argc, char** argv) {
   const MarkerStream clean = ReadMarkerCsv(input);
   if (clean.frames.size() < 3)
     throw InputError(Str(input, ": needs at least 3 frames, got ", clean.frames.size()));
+  // the metrics resample the stream uniformly: one absurd timestamp would stretch the grid
+  // over a long empty stretch (a 440 % nRMS); a tracker's sampling jitters by a few percent
+  // and a lost frame doubles one interval, so an interval over 10 times the median is a broken
+  // time column
+  CheckMarkerSampling(clean, input, 10.0, std::numeric_limits<double>::infinity());
   const std::filesystem::path out_dir = cli.GetString("out");
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);

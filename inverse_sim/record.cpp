@@ -15,6 +15,7 @@
 #include "common/core/interrupt.h"
 #include "common/core/sequence_tracker.h"
 #include "common/markers/marker_csv.h"
+#include "common/results/atomic_file.h"
 #include "messages/transport.h"
 #include "messages/transport_options.h"
 
@@ -173,8 +174,11 @@ class Recorder {
           "record: publisher lost: its liveliness lease (%.3f s) expired %.3f s after its last "
           "frame\n",
           liveliness_lease_s_, silent_for);
+    // the recording replaces an earlier OUT.csv only now (until here it is OUT.csv.partial):
+    // whatever the ending, the rows received are whole and in order
+    if (csv_) csv_->Close();
     if (!csv_)
-      std::printf("record: no frame received; %s holds no data\n", options_.out_path.c_str());
+      std::printf("record: no frame received; %s not written\n", options_.out_path.c_str());
     if (options_.summary_path) {
       nlohmann::json j = {{"ending", EndingName(ending)},
                           {"received", seqs_.received()},
@@ -186,7 +190,7 @@ class Recorder {
                           {"deadline_missed", health.deadline_missed},
                           {"seconds_since_last_frame", silent_for},
                           {"out", options_.out_path}};
-      std::ofstream(*options_.summary_path) << j.dump(2) << "\n";
+      WriteFileAtomically(*options_.summary_path, j.dump(2) + "\n");
     }
     return ending == Ending::kEndOfStream ? 0 : 1;
   }
@@ -235,9 +239,11 @@ int RunRecord(int argc, char** argv) {
     throw InputError("--timeout and --start-timeout must be > 0 and --end-grace >= 0 (s)");
   options.quiet = cli.GetFlag("quiet");
   if (cli.Has("summary")) options.summary_path = cli.GetString("summary");
-  {  // fail on an unwritable path now rather than after the first frame
-    std::ofstream probe(options.out_path);
-    if (!probe) throw InputError(Str(options.out_path, ": cannot open for writing"));
+  {  // fail on an unwritable path now rather than after the first frame, without touching
+     // an earlier recording at that path (the recording goes to OUT.csv.partial)
+    const std::string probe = options.out_path + ".partial";
+    if (!std::ofstream(probe)) throw InputError(Str(probe, ": cannot open for writing"));
+    std::remove(probe.c_str());
   }
   const transport::TransportConfig tc = transport::TransportFromCli(cli);
   InstallInterruptHandler();

@@ -1,5 +1,6 @@
 #include "inverse_sim/run_command.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <optional>
 
@@ -55,6 +56,9 @@ int RunInverseSim(int argc, char** argv) {
             "take markers, robot state and entry point from the ROS 2 topics and publish the "
             "targets there (/nsim/target_pose, /nsim/robot/joint_command); realtime")
       .Option("ros2-idle", "S", "with --ros2-io: end when no markers came for S seconds", "5");
+      .Flag("check",
+            "only read and check the scenario, its mesh and the options, then exit (0: valid, "
+            "2: the reason)");
   AddControllerOptions(cli);
   transport::AddTransportOptions(cli);
   transport::AddRos2Options(cli);
@@ -67,8 +71,10 @@ int RunInverseSim(int argc, char** argv) {
   options.lockstep = scenario.lockstep;
   options.timeout = cli.GetDouble("timeout");
   options.start_timeout = cli.GetDouble("start-timeout");
-  if (!(options.timeout > 0) || !(options.start_timeout > 0))
-    throw InputError("--timeout and --start-timeout must be > 0 (s)");
+  // a day at most: the longest run is an hour of simulated time
+  if (!(options.timeout > 0 && options.timeout <= 86400) ||
+      !(options.start_timeout > 0 && options.start_timeout <= 86400))
+    throw InputError("--timeout and --start-timeout must be in (0, 86400] (s)");
   options.quiet = cli.GetFlag("quiet");
   options.scenario_hash = scenario.scenario_hash;
   options.transport = transport::TransportFromCli(cli);
@@ -80,6 +86,11 @@ int RunInverseSim(int argc, char** argv) {
   if (cli.GetFlag("ros2-io")) {
     ros2_io = Ros2IoOptions(cli, scenario, options);
     scenario.lockstep = false;
+  }
+  if (cli.GetFlag("check")) {
+    ReadGmshMesh(scenario.mesh_path);
+    if (!options.quiet) std::printf("run: %s is valid\n", cli.GetString("config").c_str());
+    return 0;
   }
 
   const std::string out_dir = cli.GetString("out");

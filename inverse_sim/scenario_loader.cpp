@@ -5,9 +5,11 @@
 #include <filesystem>
 #include <iostream>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/core/yaml_reader.h"
 #include "common/scenario/shared_scenario.h"
+#include "common/scene/scene_config.h"
 
 namespace nsim {
 namespace {
@@ -49,6 +51,33 @@ void ApplyShared(const SharedScenario& shared, InverseScenario* s) {
   s->loop.control.iiwa.X_WB = shared.X_WB;
 }
 
+// Upper (and tighter lower) bounds of the model's values, beyond InverseModelConfig's checks.
+void CheckInverseBounds(const InverseScenario& s) {
+  // the controller's model steps once per frame: 0.1 ms .. 0.1 s (patient.time_step's range)
+  CheckRange(s.loop.model.liver.time_step, 1e-4, 0.1, "inverse.liver.time_step", "s");
+  CheckTissueBounds(s.loop.model.liver, "inverse.liver");
+  // the model's stiffness error: the experiments draw +-13 %; a factor of 10 is no model
+  CheckRange(s.loop.model.young_modulus_factor, 0.1, 10.0, "inverse.young_modulus_factor", "",
+             false);
+  // as needle.<tissue> of the patient: puncture forces are 0.1..10 N, points mm apart
+  CheckAtMost(s.loop.model.puncture_force, 1e3, "inverse.puncture_force", "N");
+  CheckAtMost(s.loop.model.point_spacing, 2.0, "inverse.point_spacing", "m");
+}
+
+// Upper bounds of the path and the Jacobian steps, beyond SteeringPathConfig's and
+// SteeringControlConfig's checks.
+void CheckControllerBounds(const InverseScenario& s) {
+  // path points mm apart along a needle at most 2 m long
+  CheckAtMost(s.loop.path.spacing, 2.0, "controller.path.spacing", "m");
+  CheckAtMost(s.loop.path.switching.switch_distance, 1.0, "controller.path.switch_distance", "m");
+  // finite-difference steps: um..mm; 10 cm or 1 rad is no derivative
+  for (int j = 0; j < 6; ++j)
+    CheckAtMost(s.loop.control.pose_steps[j], j < 3 ? 0.1 : 1.0, Str("controller.pose_steps[", j, "]"),
+                j < 3 ? "m" : "rad");
+  for (int j = 0; j < 7; ++j)
+    CheckAtMost(s.loop.control.joint_steps[j], 1.0, Str("controller.joint_steps[", j, "]"), "rad");
+}
+
 // inverse: the liver model; the mesh path relative to the scenario file
 void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
@@ -63,6 +92,7 @@ void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario
   inv.Read("point_spacing", &s->loop.model.point_spacing);
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
   ValidateAs([&] { s->loop.model.Validate(); }, path, "inverse.", "inverse.");
+  ValidateAs([&] { CheckInverseBounds(*s); }, path, "", "");
 }
 
 // controller: the path, the Jacobian steps, the gains and the law
@@ -95,6 +125,7 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.Read("compensate_in_flight", &s->loop.control.compensate_in_flight);
   ValidateAs([&] { s->loop.path.Validate(); }, path, "controller.", "controller.");
   ValidateAs([&] { s->loop.control.Validate(); }, path, "controller.", "controller.");
+  ValidateAs([&] { CheckControllerBounds(*s); }, path, "", "");
 }
 
 // prediction (optional): the marker predictor and the horizon; the search lead resolved
@@ -132,6 +163,9 @@ void ReadDds(const YamlReader& dds, InverseScenario* s) {
   dds.CheckKeys({"domain", "partition"});
   dds.Read("domain", &s->dds_domain);
   dds.Read("partition", &s->dds_partition);
+  if (dds.Has("partition"))
+    ValidateAs([&] { CheckName(s->dds_partition, kMaxPartitionLength, "dds.partition"); },
+               dds.source(), "", "");
 }
 
 // run.mode of the direct side (optional): lockstep or not; the other run keys are direct_sim's

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "common/core/clock.h"
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "messages/convert.h"
 #include "messages/dds_util.h"
@@ -66,11 +67,15 @@ void TransportConfig::Validate() const {
   if (domain_id < 0 || domain_id > 232)
     throw InputError(Str("dds.domain_id must be in 0..232, got ", domain_id));
   if (partition.empty()) throw InputError("dds.partition must not be empty");
+  CheckName(partition, kMaxPartitionLength, "dds.partition");
   if (!config_file.empty() && !std::filesystem::is_regular_file(config_file))
     throw InputError(Str("dds.config_file: no such file '", config_file, "'"));
   if (!(liveliness_lease_s > 0))
     throw InputError(Str("dds.liveliness_lease must be > 0 (s), got ", liveliness_lease_s));
   if (!(deadline_s >= 0)) throw InputError(Str("dds.deadline must be >= 0 (s), got ", deadline_s));
+  // an hour: a peer silent that long is dead; larger values overflow DDS's ns durations
+  CheckAtMost(liveliness_lease_s, 3600.0, "dds.liveliness_lease", "s");
+  CheckAtMost(deadline_s, 3600.0, "dds.deadline", "s");
   if (lossless_depth < 1)
     throw InputError(Str("dds.lossless_depth must be >= 1, got ", lossless_depth));
 }

@@ -1,5 +1,7 @@
 #include "messages/transport_options.h"
 
+#include "common/core/bounds.h"
+
 namespace nsim::transport {
 
 void AddTransportOptions(CommandLine& cli) {
@@ -16,6 +18,7 @@ TransportConfig TransportFromCli(const CommandLine& cli) {
   c.config_file = cli.GetString("dds-config");
   c.domain_id = static_cast<int>(cli.GetInt("domain"));
   c.partition = cli.GetString("partition");
+  CheckName(c.partition, kMaxPartitionLength, "--partition");
   c.liveliness_lease_s = cli.GetDouble("lease");
   c.deadline_s = cli.GetDouble("deadline");
   c.Validate();

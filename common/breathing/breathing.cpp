@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 
 namespace nsim {
@@ -28,6 +29,8 @@ double DrawFactor(std::mt19937_64& rng, double cv) {
 void BreathingConfig::Validate() const {
   if (!(period > 0) || !std::isfinite(period))
     throw InputError(Str("breathing.period must be > 0 (s), got ", period));
+  // human breathing: 2..10 s per cycle at rest (a newborn 1 s); 30 s is no breathing
+  CheckRange(period, 0.5, 30.0, "breathing.period", "s");
   if (!(period_cv >= 0 && period_cv <= 0.3))
     throw InputError(Str("breathing.period_cv must be in [0, 0.3], got ", period_cv));
   if (!(amplitude_cv >= 0 && amplitude_cv <= 0.3))
@@ -38,6 +41,10 @@ void BreathingConfig::Validate() const {
     throw InputError(Str("breathing.ap_amplitude must be >= 0 (m), got ", ap_amplitude));
   if (!(lr_amplitude >= 0) || !std::isfinite(lr_amplitude))
     throw InputError(Str("breathing.lr_amplitude must be >= 0 (m), got ", lr_amplitude));
+  // the liver moves 5..25 mm superior-inferior (Liang 2018), never 10 cm
+  CheckAtMost(si_amplitude, 0.1, "breathing.si_amplitude", "m");
+  CheckAtMost(ap_amplitude, 0.1, "breathing.ap_amplitude", "m");
+  CheckAtMost(lr_amplitude, 0.1, "breathing.lr_amplitude", "m");
   if (shape_exponent < 1 || shape_exponent > 6)
     throw InputError(Str("breathing.shape_exponent must be in [1, 6], got ", shape_exponent));
   if (!(start_phase >= 0 && start_phase < 1))
@@ -52,8 +59,12 @@ void BreathingConfig::Validate() const {
   if (!IsFinite(drift_velocity))
     throw InputError(Str("breathing.drift_velocity must be finite (m/s), got [",
                          drift_velocity.transpose(), "]"));
+  // a drift of 1 cm/s moves the organ 10 cm in 10 s: baseline drift is mm per minute
+  CheckNormAtMost(drift_velocity, 0.01, "breathing.drift_velocity", "m/s");
   if (!(horizon > 0) || !std::isfinite(horizon))
     throw InputError(Str("breathing.horizon must be > 0 (s), got ", horizon));
+  // the cycles are drawn up front to the horizon: a day of breathing at most (~2e4 cycles)
+  CheckAtMost(horizon, 86400.0, "breathing.horizon", "s");
 }
 
 BreathingModel::BreathingModel(const BreathingConfig& config) : config_(config) {

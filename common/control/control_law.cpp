@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 
 namespace nsim {
@@ -34,6 +35,12 @@ void ControlLawConfig::Validate() const {
   CheckPositive(max_translation_step, "max_translation_step", " (m)");
   CheckPositive(max_rotation_step, "max_rotation_step", " (rad)");
   CheckPositive(max_joint_step, "max_joint_step", " (rad)");
+  // per control step (20 ms): 10 cm is 5 m/s, 1 rad is 50 rad/s, beyond any robot; a
+  // regularization of 1e6 m^2 leaves no control at all
+  CheckAtMost(max_translation_step, 0.1, "control.max_translation_step", "m");
+  CheckAtMost(max_rotation_step, 1.0, "control.max_rotation_step", "rad");
+  CheckAtMost(max_joint_step, 1.0, "control.max_joint_step", "rad");
+  CheckAtMost(regularization, 1e6, "control.regularization", "");
 }
 
 void CalcControlStep(const Eigen::MatrixXd& J_r_plus, const Eigen::VectorXd& k,

@@ -1,15 +1,18 @@
 #include "common/core/yaml_reader.h"
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
+#include <map>
 #include <sstream>
 
 #include "common/core/error.h"
+#include "common/core/input_file.h"
 
 namespace nsim {
 namespace {
@@ -20,8 +23,103 @@ std::string JoinKeys(const std::vector<std::string>& keys) {
   return out;
 }
 
+// yaml-cpp keeps both entries of a duplicated key and operator[] finds the first, so a second
+// "young_modulus:" further down would be silently ignored. This pass over the parser's events
+// (before the document is built) remembers the keys of every open map and reports the second
+// occurrence of one: "<source>:<line>: duplicate key <path> (first at line <n>)".
+class DuplicateKeyFinder : public YAML::EventHandler {
+ public:
+  explicit DuplicateKeyFinder(const std::string& source) : source_(source) {}
+
+  void OnDocumentStart(const YAML::Mark&) override { stack_.clear(); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { Leaf(mark, nullptr); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { Leaf(mark, nullptr); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                const std::string& value) override {
+    Leaf(mark, &value);
+  }
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {
+    Open(false);
+  }
+  void OnSequenceEnd() override { Close(); }
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {
+    Open(true);
+  }
+  void OnMapEnd() override { Close(); }
+
+ private:
+  struct Container {
+    bool is_map = false;
+    bool expect_key = true;  // maps: the next node is a key
+    size_t index = 0;        // sequences: the next element's index
+    std::string path;
+    std::string key;                          // maps: the key of the current entry
+    std::map<std::string, int> keys;          // maps: key -> line of its first occurrence
+  };
+
+  // key path of the node that starts now
+  std::string ChildPath() const {
+    if (stack_.empty()) return "";
+    const Container& c = stack_.back();
+    if (!c.is_map) return Str(c.path, "[", c.index, "]");
+    if (c.expect_key) return c.path.empty() ? "<key>" : c.path + ".<key>";
+    return c.path.empty() ? c.key : c.path + "." + c.key;
+  }
+
+  // a node was completed inside the top container
+  void Completed() {
+    if (stack_.empty()) return;
+    Container& c = stack_.back();
+    if (c.is_map) {
+      c.expect_key = !c.expect_key;
+    } else {
+      ++c.index;
+    }
+  }
+
+  void Leaf(const YAML::Mark& mark, const std::string* value) {
+    if (!stack_.empty() && stack_.back().is_map && stack_.back().expect_key) {
+      Container& c = stack_.back();
+      c.key = value ? *value : "";
+      const std::string path = c.path.empty() ? c.key : c.path + "." + c.key;
+      const auto [it, inserted] = c.keys.emplace(c.key, mark.line + 1);
+      if (!inserted)
+        throw InputError(Str(source_, ":", mark.line + 1, ": duplicate key ", path,
+                             " (first at line ", it->second, ")"));
+    }
+    Completed();
+  }
+
+  void Open(bool is_map) {
+    Container c;
+    c.is_map = is_map;
+    c.path = ChildPath();
+    const bool complex_key = !stack_.empty() && stack_.back().is_map && stack_.back().expect_key;
+    if (complex_key) stack_.back().key = "<complex key>";
+    stack_.push_back(std::move(c));
+  }
+
+  void Close() {
+    if (!stack_.empty()) stack_.pop_back();
+    Completed();
+  }
+
+  const std::string& source_;
+  std::vector<Container> stack_;
+};
+
 YAML::Node LoadDocument(const std::string& text, const std::string& source) {
   try {
+    {
+      std::istringstream in(text);
+      YAML::Parser parser(in);
+      DuplicateKeyFinder finder(source);
+      while (parser.HandleNextDocument(finder)) {
+      }
+    }
     return YAML::Load(text);
   } catch (const YAML::ParserException& e) {
     throw InputError(Str(source, ":", e.mark.line + 1, ":", e.mark.column + 1, ": ", e.msg));
@@ -51,11 +149,7 @@ YamlReader& YamlReader::operator=(const YamlReader& other) {
 }
 
 YamlReader YamlReader::LoadFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(Str(path, ": cannot open the file"));
-  std::stringstream text;
-  text << in.rdbuf();
-  return LoadString(text.str(), path);
+  return LoadString(ReadInputFile(path, "file"), path);
 }
 
 YamlReader YamlReader::LoadString(const std::string& text, const std::string& source) {

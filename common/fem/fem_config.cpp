@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 
 namespace nsim {
@@ -32,6 +33,8 @@ void FemConfig::Validate() const {
     throw InputError(Str("fem.cg_relative_tolerance must be in (0, 1), got ", cg_relative_tolerance));
   if (!(cg_max_iterations >= 1))
     throw InputError(Str("fem.cg_max_iterations must be >= 1, got ", cg_max_iterations));
+  // a preconditioned CG that needs more than 1e5 iterations has failed anyway
+  CheckAtMost(cg_max_iterations, 1e5, "fem.cg_max_iterations", "");
   if (!(refactor_iteration_threshold >= 1))
     throw InputError(
         Str("fem.refactor_iteration_threshold must be >= 1, got ", refactor_iteration_threshold));

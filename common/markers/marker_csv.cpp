@@ -1,5 +1,6 @@
 #include "common/markers/marker_csv.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -7,8 +8,10 @@
 #include <fstream>
 #include <istream>
 #include <ostream>
+#include <sstream>
 
 #include "common/core/error.h"
+#include "common/core/input_file.h"
 
 namespace nsim {
 namespace {
@@ -60,6 +63,10 @@ MarkerStream ParseMarkerCsv(std::istream& in, const std::string& source) {
     throw fail(1, -1, "empty file: expected the header 't,m0_x,m0_y,m0_z,...'");
   ++line_no;
   const std::vector<std::string> header = SplitCommas(Trim(line));
+  if (header.size() > 1 + 3 * static_cast<size_t>(kMaxCsvMarkers))
+    throw fail(line_no, -1,
+               Str("header has ", header.size(), " columns; at most ", kMaxCsvMarkers,
+                   " markers (", 1 + 3 * kMaxCsvMarkers, " columns) are read"));
   if (header.size() < 4 || (header.size() - 1) % 3 != 0)
     throw fail(line_no, -1,
                Str("header has ", header.size(),
@@ -111,20 +118,42 @@ MarkerStream ParseMarkerCsv(std::istream& in, const std::string& source) {
   return stream;
 }
 
+void CheckMarkerSampling(const MarkerStream& stream, const std::string& source, double max_ratio,
+                         double max_gap_s) {
+  const auto& frames = stream.frames;
+  if (frames.size() < 2) return;
+  std::vector<double> dt(frames.size() - 1);
+  for (size_t k = 1; k < frames.size(); ++k)
+    dt[k - 1] = frames[k].stamp.sim_time - frames[k - 1].stamp.sim_time;
+  std::vector<double> sorted = dt;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  for (size_t k = 1; k < frames.size(); ++k) {
+    const double gap = dt[k - 1];
+    // rows are consecutive lines after the header: frame k is on line k + 2
+    const long line = static_cast<long>(k) + 2;
+    if (gap > max_gap_s)
+      throw InputError(Str(source, ":", line, ":1 (t): a gap of ", gap, " s after t = ",
+                           frames[k - 1].stamp.sim_time, " s, more than the ", max_gap_s,
+                           " s allowed between two frames"));
+    if (gap > max_ratio * median)
+      throw InputError(Str(source, ":", line, ":1 (t): a gap of ", gap, " s after t = ",
+                           frames[k - 1].stamp.sim_time, " s, more than ", max_ratio,
+                           " times the median frame interval (", median,
+                           " s): not a uniform sampling"));
+  }
+}
+
 MarkerStream ReadMarkerCsv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(Str(path, ": cannot open marker CSV for reading"));
+  std::istringstream in(ReadInputFile(path, "marker CSV"));
   return ParseMarkerCsv(in, path);
 }
 
 MarkerCsvWriter::MarkerCsvWriter(const std::string& path, int num_markers)
-    : file_(std::make_unique<std::ofstream>(path, std::ios::trunc)),
-      out_(file_.get()),
-      path_(path),
-      num_markers_(num_markers) {
-  if (!*file_) throw InputError(Str(path, ": cannot open for writing"));
+    : path_(path), num_markers_(num_markers) {
   if (num_markers < 1) throw InputError(Str(path, ": a marker stream needs at least one marker"));
-  *out_ << MarkerCsvHeader(num_markers) << "\n" << std::flush;
+  file_ = std::make_unique<LineFile>(path);
+  WriteLine(MarkerCsvHeader(num_markers));
 }
 
 MarkerCsvWriter::MarkerCsvWriter(std::ostream& out, int num_markers)
@@ -140,25 +169,40 @@ void MarkerCsvWriter::Write(const MarkerFrame& frame) {
   if (rows_ > 0 && !(frame.stamp.sim_time > last_t_))
     throw InputError(Str(path_, ": frame ", frame.stamp.seq, " time ", frame.stamp.sim_time,
                          " does not increase (last ", last_t_, ")"));
+  // the whole row in one string, written at once: a kill leaves no half row
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.17g", frame.stamp.sim_time);
-  *out_ << buf;
+  std::string line = buf;
   for (const auto& p : frame.p_WM) {
     for (int k = 0; k < 3; ++k) {
       std::snprintf(buf, sizeof buf, ",%.17g", p[k]);
-      *out_ << buf;
+      line += buf;
     }
   }
-  *out_ << "\n";
-  out_->flush();
-  if (!*out_) throw std::runtime_error(Str(path_, ": write failed"));
+  WriteLine(line);
   last_t_ = frame.stamp.sim_time;
   ++rows_;
+}
+
+void MarkerCsvWriter::WriteLine(const std::string& line) {
+  if (file_) {
+    file_->WriteLine(line);
+    return;
+  }
+  const std::string text = line + "\n";
+  out_->write(text.data(), static_cast<std::streamsize>(text.size()));
+  out_->flush();
+  if (!*out_) throw std::runtime_error(Str(path_, ": write failed"));
+}
+
+void MarkerCsvWriter::Close() {
+  if (file_) file_->Commit();
 }
 
 void WriteMarkerCsv(const std::string& path, const MarkerStream& stream) {
   MarkerCsvWriter writer(path, stream.num_markers);
   for (const auto& f : stream.frames) writer.Write(f);
+  writer.Close();
 }
 
 }  // namespace nsim

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "common/core/line_file.h"
 #include "common/core/samples.h"
 
 namespace nsim {
@@ -27,14 +28,28 @@ MarkerStream ReadMarkerCsv(const std::string& path);
 /// Same, from a stream; `source` names it in error messages.
 MarkerStream ParseMarkerCsv(std::istream& in, const std::string& source);
 
+/// The most markers a marker CSV may have (a SensorFrame carries at most 64, `direct_sim
+/// breathe` writes up to 100): a wider header is refused before any row is read.
+constexpr int kMaxCsvMarkers = 1000;
+
+/// Checks that the stream's time column is a plausible, roughly uniform sampling: InputError
+/// "<source>:<line>:1 (t): ..." naming the row that ends the first interval longer than
+/// `max_ratio` times the median interval or longer than `max_gap_s` seconds (pass infinity
+/// to skip that test). A stream of fewer than 2 frames has no interval and passes.
+void CheckMarkerSampling(const MarkerStream& stream, const std::string& source, double max_ratio,
+                         double max_gap_s);
+
 /// The header line for `num_markers` markers (no newline).
 std::string MarkerCsvHeader(int num_markers);
 
-/// Writes frames one by one, flushing each row, so a recording survives a crash of its writer.
-/// Values are written with 17 significant digits: reading them back gives the same doubles.
+/// Writes frames one by one, each row with one write of the complete line, so a recording
+/// killed at any point holds whole rows only. Writing to a path goes to "<path>.partial" until
+/// Close() renames it onto `path` (common/core/line_file.h): a recording that never finishes
+/// leaves an earlier file at `path` untouched. Values are written with 17 significant digits:
+/// reading them back gives the same doubles.
 class MarkerCsvWriter {
  public:
-  /// Opens (truncates) `path` and writes the header. Throws InputError if it cannot.
+  /// Creates "<path>.partial" and writes the header. Throws InputError if it cannot.
   MarkerCsvWriter(const std::string& path, int num_markers);
   /// Writes to a caller-owned stream (tests).
   MarkerCsvWriter(std::ostream& out, int num_markers);
@@ -42,12 +57,16 @@ class MarkerCsvWriter {
   /// Appends one row. Throws InputError if the frame's marker count differs from the header's
   /// or its time does not increase.
   void Write(const MarkerFrame& frame);
+  /// Renames the partial file onto the path (a file writer; a no-op on a stream).
+  void Close();
   int num_markers() const { return num_markers_; }
   long rows_written() const { return rows_; }
 
  private:
-  std::unique_ptr<std::ofstream> file_;
-  std::ostream* out_;
+  void WriteLine(const std::string& line);
+
+  std::unique_ptr<LineFile> file_;
+  std::ostream* out_ = nullptr;
   std::string path_;
   int num_markers_;
   long rows_ = 0;

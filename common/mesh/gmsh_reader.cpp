@@ -7,10 +7,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <istream>
+#include <limits>
 #include <map>
+#include <sstream>
 #include <unordered_map>
 
 #include "common/core/error.h"
+#include "common/core/input_file.h"
 
 namespace nsim {
 namespace {
@@ -21,12 +24,15 @@ constexpr int kTypeTet = 4;
 /// Reads a stream line by line, splitting each line into whitespace-separated tokens.
 class LineReader {
  public:
-  LineReader(std::istream& in, std::string source) : in_(in), source_(std::move(source)) {}
+  /// `size`: the stream's length in bytes, or -1 when unknown (then counts are not bounded).
+  LineReader(std::istream& in, std::string source, long long size)
+      : in_(in), source_(std::move(source)), size_(size) {}
 
   /// Advances to the next line (blank lines included); false at the end of the stream.
   bool Next() {
     if (!std::getline(in_, line_)) return false;
     ++number_;
+    consumed_ += static_cast<long long>(line_.size()) + 1;
     if (!line_.empty() && line_.back() == '\r') line_.pop_back();
     tokens_.clear();
     std::string::size_type pos = 0;
@@ -85,6 +91,21 @@ class LineReader {
     return v;
   }
 
+  /// Checks that a header's `count` of `what` fits in the rest of the file, each taking at
+  /// least `min_bytes` bytes, before anything is allocated for them: a header announcing 1e12
+  /// nodes in a small file is an error at its line, not a bad_alloc.
+  void CheckCount(long long count, int min_bytes, const char* what) const {
+    if (count > std::numeric_limits<int>::max())
+      throw Error(Str("the header announces ", count, " ", what, ", more than the ",
+                      std::numeric_limits<int>::max(), " a mesh can index"));
+    if (size_ < 0) return;
+    const long long room = std::max(0LL, size_ - consumed_) / min_bytes;
+    if (count > room)
+      throw Error(Str("the header announces ", count, " ", what, ", more than the rest of the file (",
+                      std::max(0LL, size_ - consumed_), " bytes) can hold (at least ", min_bytes,
+                      " bytes each)"));
+  }
+
   const std::vector<std::string>& tokens() const { return tokens_; }
   const std::string& line() const { return line_; }
   long number() const { return number_; }
@@ -96,7 +117,16 @@ class LineReader {
   std::string line_;
   std::vector<std::string> tokens_;
   long number_ = 0;
+  long long size_ = -1, consumed_ = 0;
 };
+
+// the shortest lines of a section, for LineReader::CheckCount: a node is "t x y z\n" (v2) or
+// "t\n" + "x y z\n" (v4), an element line at least "a b c\n" (v2) or "a\n" (v4, an ignored
+// type), a block header "a b c d\n"
+constexpr int kMinNodeBytes = 8;
+constexpr int kMinElementBytes2 = 6;
+constexpr int kMinElementBytes4 = 2;
+constexpr int kMinBlockBytes = 8;
 
 struct RawNode {
   Eigen::Vector3d x;
@@ -199,6 +229,7 @@ void ParseNodes2(LineReader& r, RawMesh& m) {
   r.NextNonBlank("the number of nodes");
   r.ExpectTokens(1, "the number of nodes");
   const long long n = r.NonNegative(0, "the number of nodes");
+  r.CheckCount(n, kMinNodeBytes, "nodes");
   m.nodes.reserve(n);
   for (long long i = 0; i < n; ++i) {
     r.NextNonBlank(Str("node ", i + 1, " of ", n, " 'tag x y z'"));
@@ -215,6 +246,8 @@ void ParseNodes4(LineReader& r, RawMesh& m) {
   r.ExpectTokens(4, "the nodes header 'numEntityBlocks numNodes minNodeTag maxNodeTag'");
   const long long blocks = r.NonNegative(0, "the number of node blocks");
   const long long total = r.NonNegative(1, "the number of nodes");
+  r.CheckCount(blocks, kMinBlockBytes, "node blocks");
+  r.CheckCount(total, kMinNodeBytes, "nodes");
   m.nodes.reserve(total);
   for (long long b = 0; b < blocks; ++b) {
     r.NextNonBlank("a node block header 'entityDim entityTag parametric numNodesInBlock'");
@@ -229,6 +262,7 @@ void ParseNodes4(LineReader& r, RawMesh& m) {
     const long long count = r.NonNegative(3, "the number of nodes in the block");
     if (static_cast<long long>(m.nodes.size()) + count > total)
       throw r.Error(Str("node blocks hold more nodes than the header's ", total));
+    r.CheckCount(count, kMinNodeBytes, "nodes in the block");
     std::vector<std::pair<long long, long>> tags;  // (tag, line)
     tags.reserve(count);
     for (long long i = 0; i < count; ++i) {
@@ -256,6 +290,7 @@ void ParseElements2(LineReader& r, RawMesh& m) {
   r.NextNonBlank("the number of elements");
   r.ExpectTokens(1, "the number of elements");
   const long long n = r.NonNegative(0, "the number of elements");
+  r.CheckCount(n, kMinElementBytes2, "elements");
   for (long long i = 0; i < n; ++i) {
     r.NextNonBlank(Str("element ", i + 1, " of ", n));
     if (r.tokens()[0][0] == '$')
@@ -284,6 +319,8 @@ void ParseElements4(LineReader& r, RawMesh& m) {
   r.ExpectTokens(4, "the elements header 'numEntityBlocks numElements minTag maxTag'");
   const long long blocks = r.NonNegative(0, "the number of element blocks");
   const long long total = r.NonNegative(1, "the number of elements");
+  r.CheckCount(blocks, kMinBlockBytes, "element blocks");
+  r.CheckCount(total, kMinElementBytes4, "elements");
   long long seen = 0;
   for (long long b = 0; b < blocks; ++b) {
     r.NextNonBlank("an element block header 'entityDim entityTag elementType numElementsInBlock'");
@@ -377,7 +414,15 @@ RawMesh ParseSections(LineReader& r) {
 
 TetMesh ParseGmshMesh(std::istream& in, const std::string& source, const GmshReadOptions& options,
                       GmshFileInfo* info) {
-  LineReader reader(in, source);
+  // the stream's length bounds the counts its headers may announce
+  long long size = -1;
+  const std::istream::pos_type start = in.tellg();
+  if (start != std::istream::pos_type(-1) && in.seekg(0, std::ios::end)) {
+    size = static_cast<long long>(in.tellg() - start);
+    in.seekg(start);
+  }
+  in.clear();
+  LineReader reader(in, source, size);
   RawMesh raw = ParseSections(reader);
   auto fail = [&](long line, const std::string& what) {
     return InputError(Str(source, ":", line, ": ", what));
@@ -507,8 +552,7 @@ TetMesh ParseGmshMesh(std::istream& in, const std::string& source, const GmshRea
 }
 
 TetMesh ReadGmshMesh(const std::string& path, const GmshReadOptions& options, GmshFileInfo* info) {
-  std::ifstream in(path);
-  if (!in) throw InputError(Str(path, ": cannot open the mesh file for reading"));
+  std::istringstream in(ReadInputFile(path, "mesh file"));
   return ParseGmshMesh(in, path, options, info);
 }
 

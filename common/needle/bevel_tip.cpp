@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 
 namespace nsim {
@@ -19,6 +20,10 @@ void BevelConfig::Validate(const std::string& prefix) const {
                          beta_over_alpha * bevel_angle));
   if (!(tissue_stiffness > 0.0) || !std::isfinite(tissue_stiffness))
     throw InputError(Str(prefix, ".tissue_stiffness must be > 0 (N/m^2), got ", tissue_stiffness));
+  // a needle is at most a few mm across (10 cm is none); a tissue stiffer than diamond
+  // (1.2e12) is none
+  CheckAtMost(diameter, 0.1, prefix + ".diameter", "m");
+  CheckAtMost(tissue_stiffness, 1e12, prefix + ".tissue_stiffness", "N/m^2");
 }
 
 BevelLoads CalcBevelLoads(const BevelConfig& config) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/mesh/point_locator.h"
 #include "common/mesh/surface_locator.h"
@@ -96,6 +97,15 @@ void TissueCouplingConfig::Validate(const std::string& prefix) const {
         point_spacing);
   check(contact_margin >= 0.0 && std::isfinite(contact_margin), "contact_margin", ">= 0 (m)",
         contact_margin);
+  // Puncture forces of skin and organs are 0.1..10 N, friction coefficients below 1 and
+  // friction along the shaft tens of N/m: 1000 N, 10 and 1e5 N/m bound anything physical;
+  // path points are seeded mm apart in a needle at most 2 m long; a contact margin of 10 cm
+  // puts the whole organ in contact.
+  CheckAtMost(puncture_force, 1e3, prefix + ".puncture_force", "N");
+  CheckAtMost(friction_coefficient, 10.0, prefix + ".friction_coefficient", "");
+  CheckAtMost(friction_force_per_length, 1e5, prefix + ".friction_force_per_length", "N/m");
+  CheckAtMost(point_spacing, 2.0, prefix + ".point_spacing", "m");
+  CheckAtMost(contact_margin, 0.1, prefix + ".contact_margin", "m");
 }
 
 void NeedleCouplingConfig::Validate() const {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 
 namespace nsim {
@@ -15,6 +16,12 @@ void NeedleConfig::Validate(const std::string& prefix) const {
   positive(radius, "radius", "m");
   positive(young_modulus, "young_modulus", "Pa");
   positive(density, "density", "kg/m^3");
+  // biopsy needles are 5..30 cm long and 0.2..2 mm in radius; 2 m and 5 cm are no needles;
+  // the stiffest and densest solids: 1.2e12 Pa (diamond), 2.3e4 kg/m^3 (osmium)
+  CheckAtMost(length, 2.0, prefix + ".length", "m");
+  CheckAtMost(radius, 0.05, prefix + ".radius", "m");
+  CheckAtMost(young_modulus, 1e12, prefix + ".young_modulus", "Pa");
+  CheckAtMost(density, 1e5, prefix + ".density", "kg/m^3");
   if (!(poisson_ratio > -1.0 && poisson_ratio < 0.5))
     throw InputError(Str(prefix, ".poisson_ratio must be in (-1, 0.5), got ", poisson_ratio));
   if (!p_FBase.allFinite())

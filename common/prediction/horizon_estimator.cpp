@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/prediction/polynomial_filter.h"
 
@@ -22,6 +23,12 @@ void HorizonConfig::Validate() const {
     throw InputError(Str("horizon.search_interval must be >= 0, got ", search_interval));
   if (!(localization_delay >= 0) || !std::isfinite(localization_delay))
     throw InputError(Str("horizon.localization_delay must be >= 0 (s), got ", localization_delay));
+  // a tracker's delay is ms..100 ms; 10 s is more than two breathing cycles: no prediction
+  CheckAtMost(localization_delay, 10.0, "horizon.localization_delay", "s");
+  // the history is allocated at its size: 1e5 samples is over half an hour at 50 Hz
+  CheckAtMost(window, 100000, "horizon.window", "samples");
+  CheckAtMost(window_max, 100000, "horizon.window_max", "samples");
+  CheckAtMost(history, 1000000, "horizon.history", "samples");
 }
 
 HorizonEstimator::HorizonEstimator(const HorizonConfig& config) : config_(config) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/prediction/harmonic_kalman.h"
 #include "common/prediction/polynomial_filter.h"
@@ -32,6 +33,15 @@ std::string ToString(PredictionFilterKind kind) {
 void PredictionConfig::Validate() const {
   if (pca_window < 3)
     throw InputError(Str("prediction.pca_window must be >= 3 samples, got ", pca_window));
+  // buffers are allocated at these sizes: 1e5 samples is over half an hour at 50 Hz, far
+  // beyond the few breathing cycles a predictor looks at
+  constexpr double kMaxSamples = 100000;
+  CheckAtMost(pca_window, kMaxSamples, "prediction.pca_window", "samples");
+  CheckAtMost(window, kMaxSamples, "prediction.window", "samples");
+  CheckAtMost(window_max, kMaxSamples, "prediction.window_max", "samples");
+  CheckAtMost(search_lead, kMaxSamples, "prediction.search_lead", "samples");
+  CheckAtMost(pca_update_interval, 10 * kMaxSamples, "prediction.pca_update_interval", "samples");
+  CheckAtMost(search_interval, 10 * kMaxSamples, "prediction.search_interval", "samples");
   if (pca_update_interval < 0)
     throw InputError(Str("prediction.pca_update_interval must be >= 0, got ", pca_update_interval));
   if (order < 1 || order > kMaxPolynomialOrder)

@@ -1,6 +1,7 @@
 #include "common/results/controller_recorder.h"
 
 #include <iomanip>
+#include <sstream>
 
 #include "common/core/error.h"
 #include "common/results/atomic_file.h"
@@ -25,21 +26,21 @@ json DelayStats(const std::vector<double>& delays_s) {
 }  // namespace
 
 ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(out_dir) {
-  const std::string path = out_dir_ + "/inverse.csv";
-  csv_.open(path);
-  if (!csv_) throw InputError(Str(path, ": cannot open for writing"));
-  csv_ << std::setprecision(17);
-  csv_ << "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
-          "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms\n";
+  csv_ = std::make_unique<LineFile>(out_dir_ + "/inverse.csv", LineFile::Mode::kInPlace);
+  csv_->WriteLine(
+      "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
+      "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms");
 }
 
 void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
   const ControllerRecord& r = loop.last_record();
-  csv_ << r.answers_seq << ',' << r.t << ',' << r.phase << ',' << r.path_index << ','
-       << r.valid << ',' << r.e_p_norm << ',' << r.horizon << ',' << r.predicted << ','
-       << r.model_tip.x() << ',' << r.model_tip.y() << ',' << r.model_tip.z() << ','
-       << 1e3 * r.timings.simulation << ',' << 1e3 * r.timings.jacobian << ','
-       << 1e3 * r.timings.total << '\n';
+  std::ostringstream row;  // the whole row, written at once: a kill leaves no half row
+  row << std::setprecision(17);
+  row << r.answers_seq << ',' << r.t << ',' << r.phase << ',' << r.path_index << ',' << r.valid
+      << ',' << r.e_p_norm << ',' << r.horizon << ',' << r.predicted << ',' << r.model_tip.x()
+      << ',' << r.model_tip.y() << ',' << r.model_tip.z() << ',' << 1e3 * r.timings.simulation
+      << ',' << 1e3 * r.timings.jacobian << ',' << 1e3 * r.timings.total;
+  csv_->WriteLine(row.str());
 }
 
 json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRunInfo& info) const {
@@ -102,6 +103,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
 
 void ControllerRecorder::WriteSummary(const ControllerLoop& loop,
                                       const ControllerRunInfo& info) const {
+  csv_->Commit();  // inverse.csv flushed and closed, then the summary that describes it
   WriteFileAtomically(out_dir_ + "/summary.json", Summary(loop, info).dump(2) + "\n");
 }
 

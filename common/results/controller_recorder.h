@@ -4,10 +4,11 @@
 // tip, and the step timings), and the summary.json of inverse_sim: its rate, timings, frame
 // counts and the online prediction score (nRMS per marker, thesis eq. 4.20, PredictionScore).
 
-#include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "common/core/line_file.h"
 #include "common/steering/controller_loop.h"
 
 namespace nsim {
@@ -27,19 +28,20 @@ struct ControllerRunInfo {
 
 class ControllerRecorder {
  public:
-  /// Opens DIR/inverse.csv (InputError naming the file when it cannot).
+  /// Opens DIR/inverse.csv (InputError naming the file when it cannot); each row is written
+  /// whole with one write (common/core/line_file.h).
   explicit ControllerRecorder(const std::string& out_dir);
 
   /// The last answered frame of `loop` (its last_record()).
   void AddAnswer(const ControllerLoop& loop);
 
   nlohmann::json Summary(const ControllerLoop& loop, const ControllerRunInfo& info) const;
-  /// Writes Summary() to DIR/summary.json atomically.
+  /// Flushes and closes DIR/inverse.csv and writes Summary() to DIR/summary.json atomically.
   void WriteSummary(const ControllerLoop& loop, const ControllerRunInfo& info) const;
 
  private:
   std::string out_dir_;
-  std::ofstream csv_;
+  std::unique_ptr<LineFile> csv_;
 };
 
 }  // namespace nsim

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <memory>
+#include <sstream>
 
 #include "common/core/error.h"
 #include "common/core/statistics.h"
@@ -25,21 +27,24 @@ json StatsMs(const std::vector<double>& ms) {
           {"p99", s.p99},   {"max", s.max},       {"count", s.count}};
 }
 
-void Open(std::ofstream& out, const std::string& path) {
-  out.open(path);
-  if (!out) throw InputError(Str("--out: cannot write ", path));
-  out << std::setprecision(17);
+std::unique_ptr<LineFile> Open(const std::string& path) {
+  try {
+    return std::make_unique<LineFile>(path, LineFile::Mode::kInPlace);
+  } catch (const InputError& e) {
+    throw InputError(Str("--out: ", e.what()));
+  }
 }
 
 }  // namespace
 
 PatientRecorder::PatientRecorder(const std::string& out_dir) : out_dir_(out_dir) {
-  Open(csv_, out_dir_ + "/timeseries.csv");
-  csv_ << "t,tip_target_distance_m,e_p_x,e_p_y,e_p_z,phase,m0_x,m0_y,m0_z,target_x,target_y,"
-          "target_z,tip_x,tip_y,tip_z,robot_x,robot_y,robot_z,robot_qw,robot_qx,robot_qy,"
-          "robot_qz,holding\n";
-  Open(steps_csv_, out_dir_ + "/step_times.csv");
-  steps_csv_ << "step,t,step_ms,holding\n";
+  csv_ = Open(out_dir_ + "/timeseries.csv");
+  csv_->WriteLine(
+      "t,tip_target_distance_m,e_p_x,e_p_y,e_p_z,phase,m0_x,m0_y,m0_z,target_x,target_y,"
+      "target_z,tip_x,tip_y,tip_z,robot_x,robot_y,robot_z,robot_qw,robot_qx,robot_qy,"
+      "robot_qz,holding");
+  steps_csv_ = Open(out_dir_ + "/step_times.csv");
+  steps_csv_->WriteLine("step,t,step_ms,holding");
 }
 
 void PatientRecorder::AddFrame(const PatientLoop& loop) {
@@ -57,12 +62,14 @@ void PatientRecorder::AddFrame(const PatientLoop& loop) {
   const Eigen::Vector3d& m0 = f.p_WM.at(0);
   const Eigen::Vector3d p = f.X_WE.translation();
   const Eigen::Quaterniond q(f.X_WE.linear());
-  csv_ << r.t << ',' << r.distance << ',' << r.e_p.x() << ',' << r.e_p.y() << ',' << r.e_p.z()
-       << ',' << r.phase << ',' << m0.x() << ',' << m0.y() << ',' << m0.z() << ','
-       << r.target.x() << ',' << r.target.y() << ',' << r.target.z() << ',' << r.tip.x() << ','
-       << r.tip.y() << ',' << r.tip.z() << ',' << p.x() << ',' << p.y() << ',' << p.z() << ','
-       << q.w() << ',' << q.x() << ',' << q.y() << ',' << q.z() << ',' << (r.holding ? 1 : 0)
-       << '\n';
+  std::ostringstream row;  // the whole row, written at once: a kill leaves no half row
+  row << std::setprecision(17);
+  row << r.t << ',' << r.distance << ',' << r.e_p.x() << ',' << r.e_p.y() << ',' << r.e_p.z()
+      << ',' << r.phase << ',' << m0.x() << ',' << m0.y() << ',' << m0.z() << ','
+      << r.target.x() << ',' << r.target.y() << ',' << r.target.z() << ',' << r.tip.x() << ','
+      << r.tip.y() << ',' << r.tip.z() << ',' << p.x() << ',' << p.y() << ',' << p.z() << ','
+      << q.w() << ',' << q.x() << ',' << q.y() << ',' << q.z() << ',' << (r.holding ? 1 : 0);
+  csv_->WriteLine(row.str());
 }
 
 void PatientRecorder::AddStep(const PatientLoop& loop) {
@@ -72,8 +79,10 @@ void PatientRecorder::AddStep(const PatientLoop& loop) {
   if (s.scene.num_active_rib_contacts > 0) ++rib_contact_steps_;
   if (!s.scene.solve.converged) ++unconverged_solves_;
   max_rib_penetration_ = std::max(max_rib_penetration_, s.max_rib_penetration);
-  steps_csv_ << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ','
-             << (s.holding ? 1 : 0) << '\n';
+  std::ostringstream row;
+  row << std::setprecision(17);
+  row << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ',' << (s.holding ? 1 : 0);
+  steps_csv_->WriteLine(row.str());
 }
 
 double PatientRecorder::median_step_ms() const { return Median(step_ms_); }
@@ -182,6 +191,9 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
 }
 
 void PatientRecorder::WriteSummary(const PatientLoop& loop, const PatientRunInfo& info) const {
+  // the CSVs flushed and closed, then the summary that describes them
+  csv_->Commit();
+  steps_csv_->Commit();
   WriteFileAtomically(out_dir_ + "/summary.json", Summary(loop, info).dump(2) + "\n");
 }
 

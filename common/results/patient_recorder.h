@@ -9,11 +9,13 @@
 
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "common/core/line_file.h"
 #include "common/scene/patient_loop.h"
 
 namespace nsim {
@@ -49,7 +51,7 @@ class PatientRecorder {
   static constexpr double kSteadyFraction = 0.2;
 
   /// Opens DIR/timeseries.csv and DIR/step_times.csv (InputError naming the file when it
-  /// cannot).
+  /// cannot); each row is written whole with one write (common/core/line_file.h).
   explicit PatientRecorder(const std::string& out_dir);
 
   /// A published frame: its row of timeseries.csv and the error statistics.
@@ -59,7 +61,7 @@ class PatientRecorder {
 
   /// direct_sim's summary.json.
   nlohmann::json Summary(const PatientLoop& loop, const PatientRunInfo& info) const;
-  /// Writes Summary() to DIR/summary.json atomically.
+  /// Flushes and closes the two CSVs and writes Summary() to DIR/summary.json atomically.
   void WriteSummary(const PatientLoop& loop, const PatientRunInfo& info) const;
 
   double median_step_ms() const;
@@ -68,7 +70,7 @@ class PatientRecorder {
 
  private:
   std::string out_dir_;
-  std::ofstream csv_, steps_csv_;
+  std::unique_ptr<LineFile> csv_, steps_csv_;
   std::vector<std::pair<double, double>> distance_log_;  // (t, true tip-target distance (m))
   std::vector<double> step_ms_;
   double last_distance_ = 0.0, min_distance_ = INFINITY, max_rib_penetration_ = 0.0;

@@ -3,16 +3,18 @@
 #include <cmath>
 #include <limits>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/robot/rate_limit.h"
 
 namespace nsim {
 namespace {
 
-void CheckPositive(double value, const char* name, const char* unit) {
+void CheckPositive(double value, const char* name, const char* unit, double max) {
   if (!(value > 0.0) || !std::isfinite(value)) {
     throw InputError(Str("robot.", name, " must be > 0 (", unit, "), got ", value));
   }
+  CheckAtMost(value, max, Str("robot.", name), unit);
 }
 
 void CheckDt(double dt) {
@@ -24,10 +26,13 @@ void CheckDt(double dt) {
 }  // namespace
 
 void CartesianRobotConfig::Validate() const {
-  CheckPositive(max_linear_speed, "max_linear_speed", "m/s");
-  CheckPositive(max_angular_speed, "max_angular_speed", "rad/s");
-  CheckPositive(max_linear_acceleration, "max_linear_acceleration", "m/s^2");
-  CheckPositive(max_angular_acceleration, "max_angular_acceleration", "rad/s^2");
+  // Upper bounds no robot arm reaches: an industrial arm's tool moves at most ~2 m/s (the
+  // iiwa 14 far less, a needle robot in tissue at mm/s), turns at ~10 rad/s (the iiwa's
+  // fastest joint is 3.1 rad/s) and accelerates at ~5 g (50 m/s^2), 500 rad/s^2 in rotation.
+  CheckPositive(max_linear_speed, "max_linear_speed", "m/s", 2.0);
+  CheckPositive(max_angular_speed, "max_angular_speed", "rad/s", 10.0);
+  CheckPositive(max_linear_acceleration, "max_linear_acceleration", "m/s^2", 50.0);
+  CheckPositive(max_angular_acceleration, "max_angular_acceleration", "rad/s^2", 500.0);
   static const char* kAxis[3] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(workspace_min_W[i]) || !std::isfinite(workspace_max_W[i]) ||
@@ -36,6 +41,9 @@ void CartesianRobotConfig::Validate() const {
                            kAxis[i], " (m), got ", workspace_min_W[i], " and ",
                            workspace_max_W[i]));
     }
+    // an arm reaches about 1 m; 10 m from the scene's origin is no workspace
+    CheckRange(workspace_min_W[i], -10.0, 10.0, Str("robot.workspace_min_W.", kAxis[i]), "m");
+    CheckRange(workspace_max_W[i], -10.0, 10.0, Str("robot.workspace_max_W.", kAxis[i]), "m");
   }
 }
 

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <map>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 
 namespace nsim {
@@ -27,8 +28,13 @@ void Append(std::string* text, const char* name, const Eigen::Vector3d& v) {
   *text += ']';
 }
 
+// world frame = the liver's frame, origin at its centre: a patient is under 2 m long, so a
+// point 10 m from the origin is outside any scene (the robot base included)
+constexpr double kMaxDistance_m = 10.0;
+
 void CheckFinite(const Eigen::Vector3d& v, const std::string& key) {
   if (!v.allFinite()) throw InputError(Str("shared.", key, " must be finite"));
+  CheckNormAtMost(v, kMaxDistance_m, "shared." + key, "m");
 }
 
 }  // namespace
@@ -52,6 +58,11 @@ void SharedScenario::Validate() const {
   CheckFinite(axis_F, "needle.axis");
   if (!(axis_F.norm() > 1e-9)) throw InputError("shared.needle.axis must be nonzero");
   if (!X_WB.matrix().allFinite()) throw InputError("shared.robot_base must be finite");
+  CheckNormAtMost(X_WB.translation(), kMaxDistance_m, "shared.robot_base.position", "m");
+  // the tip starts cm before the skin; biopsy needles are 5..30 cm long, 0.2..2 mm in radius
+  CheckAtMost(approach_distance, 1.0, "shared.approach_distance", "m");
+  CheckAtMost(needle_length, 2.0, "shared.needle.length", "m");
+  CheckAtMost(needle_radius, 0.05, "shared.needle.radius", "m");
 }
 
 SharedScenario ReadSharedScenario(const YamlReader& root) {

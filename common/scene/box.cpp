@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 
 namespace nsim {
@@ -11,6 +12,9 @@ void OrientedBox::Validate(const std::string& name) const {
     throw InputError(Str(name, ".center must be finite (m), got ", center.transpose()));
   if (!(half_size.minCoeff() > 0) || !half_size.allFinite())
     throw InputError(Str(name, ".half_size must be > 0 (m), got ", half_size.transpose()));
+  // boxes of a patient scene (ribs, diaphragm, anchors): 10 m is far outside any body
+  CheckNormAtMost(center, 10.0, name + ".center", "m");
+  CheckAtMost(half_size.maxCoeff(), 10.0, name + ".half_size", "m");
   if (!R_WB.allFinite() || !(std::abs(R_WB.determinant() - 1.0) < 1e-6))
     throw InputError(Str(name, ".rpy must give a rotation"));
 }

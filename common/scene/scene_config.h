@@ -128,4 +128,8 @@ struct PatientSceneConfig {
   void Validate() const;
 };
 
+/// Upper bounds of a tissue's material in a scenario (SI units): InputError
+/// "<prefix>.young_modulus must be <= 1e+12 (Pa), got ...".
+void CheckTissueBounds(const FemConfig& fem, const std::string& prefix);
+
 }  // namespace nsim

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/robot/pose_math.h"
 
@@ -11,9 +12,10 @@ namespace {
 
 constexpr size_t kMaxFrames = 100000;  // frames remembered for aging (beyond: stale)
 
-void CheckPositive(double value, const char* key, const char* unit) {
+void CheckPositive(double value, const char* key, const char* unit, double max) {
   if (!(value > 0) || !std::isfinite(value))
     throw InputError(Str("safety.", key, " must be > 0 (", unit, "), got ", value));
+  CheckAtMost(value, max, Str("safety.", key), unit);
 }
 
 }  // namespace
@@ -49,11 +51,14 @@ uint64_t GateCounts::rejected() const {
 }
 
 void TargetGateConfig::Validate() const {
-  CheckPositive(max_age, "max_age", "s");
-  CheckPositive(hold_timeout, "hold_timeout", "s");
-  CheckPositive(speed_horizon, "speed_horizon", "s");
-  CheckPositive(max_linear_speed, "max_linear_speed", "m/s");
-  CheckPositive(max_angular_speed, "max_angular_speed", "rad/s");
+  // a target a minute old, or a minute without one before holding, is no safety gate; a
+  // horizon of 100 s at full speed is no speed limit (the tests use 100 s to switch it off);
+  // the speed limits are the robot's (robot.max_*: 2 m/s, 10 rad/s)
+  CheckPositive(max_age, "max_age", "s", 60.0);
+  CheckPositive(hold_timeout, "hold_timeout", "s", 60.0);
+  CheckPositive(speed_horizon, "speed_horizon", "s", 100.0);
+  CheckPositive(max_linear_speed, "max_linear_speed", "m/s", 2.0);
+  CheckPositive(max_angular_speed, "max_angular_speed", "rad/s", 10.0);
   if (!workspace_min_W.allFinite() || !workspace_max_W.allFinite() ||
       !(workspace_min_W.array() < workspace_max_W.array()).all())
     throw InputError("safety workspace: workspace_min_W must be finite and < workspace_max_W");

@@ -26,6 +26,9 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
   fs::create_directories(dir);
   const std::string bad_csv = (dir / "bad.csv").string();
   std::ofstream(bad_csv) << "t,m0_x,m0_y,m0_z\n0,1,2,3\n0.1,1,oops,3\n";
+  const std::string gap_csv = (dir / "gap.csv").string();
+  std::ofstream(gap_csv) << "t,m0_x,m0_y,m0_z\n0,1,2,3\n0.2,1,2,3\n1000000.2,1,2,3\n1000000.4,1,2,3\n";
+  const std::string long_partition(65535, 'p');
   const std::vector<Case> cases = {
       {{kBin + "/direct_sim"}, 2, "usage: direct_sim"},
       {{kBin + "/direct_sim", "fly"}, 2, "unknown command 'fly'"},
@@ -73,6 +76,62 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
             .string()},
        2,
        "prediction.search_interval must be >= 0"},
+      // the fuzzing issue: a 65,535-character partition crashed dds_create_writer
+      {{kBin + "/direct_sim", "replay", "--markers",
+        NSIM_SOURCE_DIR "/configs/markers/breathing_demo.csv", "--partition", long_partition},
+       2,
+       "--partition must be 1..64 characters of [A-Za-z0-9_-]"},
+      {{kBin + "/inverse_sim", "record", "--out", (dir / "o.csv").string(), "--partition",
+        long_partition, "--quiet"},
+       2,
+       "--partition must be 1..64 characters"},
+      {{kBin + "/direct_sim", "run", "--config",
+        testing::WriteEditedScenario(dir, "partition.yaml", "liver_test_coarse.yaml",
+                                     {{"partition: nsim", "partition: " + long_partition}})
+            .string(),
+        "--check", "--quiet"},
+       2,
+       "dds.partition must be 1..64 characters"},
+      // a 1e6 s gap in a replayed stream: refused with its line, not slept through
+      {{kBin + "/direct_sim", "replay", "--markers", gap_csv, "--wait-readers", "0", "--quiet"},
+       2,
+       "gap.csv:4:1 (t): a gap of 1e+06 s after t = 0.2 s, more than the 10 s allowed"},
+      {{kBin + "/direct_sim", "replay", "--markers", "/dev/zero"},
+       2,
+       "/dev/zero: expected a regular file as the marker CSV, got a character device"},
+      {{kBin + "/direct_sim", "run", "--config",
+        testing::WriteEditedScenario(dir, "gravity.yaml", "liver_test_coarse.yaml",
+                                     {{"gravity: [0, 0, 0]", "gravity: [0, 0, -1.0e6]"}})
+            .string(),
+        "--no-controller", "--quiet"},
+       2,
+       "patient.gravity must be finite with a norm of at most 100 (m/s^2)"},
+      {{kBin + "/direct_sim", "run", "--config",
+        testing::WriteEditedScenario(dir, "dup.yaml", "liver_test_coarse.yaml",
+                                     {{"duration: 8.0", "duration: 8.0\n  duration: 9.0"}})
+            .string(),
+        "--check"},
+       2,
+       "duplicate key run.duration"},
+      {{kBin + "/inverse_sim", "run", "--config",
+        testing::WriteEditedScenario(dir, "dup_inverse.yaml", "liver_test_coarse.yaml",
+                                     {{"order: 2", "order: 2\n  order: 1"}})
+            .string(),
+        "--check", "--quiet"},
+       2,
+       "duplicate key prediction.order"},
+      {{kBin + "/inverse_sim", "run", "--config",
+        testing::WriteEditedScenario(dir, "mesh_dev.yaml", "liver_test_coarse.yaml",
+                                     {{NSIM_SOURCE_DIR "/configs/meshes/liver_700.msh  # coarser",
+                                       "/dev/zero  # coarser"}})
+            .string(),
+        "--check"},
+       2,
+       "/dev/zero: expected a regular file as the mesh file"},
+      {{kBin + "/inverse_sim", "predict-eval", "--markers", gap_csv, "--out",
+        (dir / "pe").string()},
+       2,
+       "gap.csv:4:1 (t): a gap of 1e+06 s after t = 0.2 s, more than 10 times the median"},
   };
   int i = 0;
   for (const Case& c : cases) {

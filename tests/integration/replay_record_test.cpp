@@ -1,6 +1,12 @@
 // direct_sim replay -> DDS (loopback) -> inverse_sim record, as two processes.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
+#include <csignal>
+
+#include <thread>
+
 #include <chrono>
 #include <filesystem>
 #include <random>
@@ -107,6 +113,33 @@ TEST(ReplayRecord, KilledPublisherIsReportedWithinTheLivelinessLease) {
   std::printf("publisher death noticed %.3f s after the kill (lease %.3f s)\n", detect_s, lease_s);
   // what was recorded before the death is a valid marker CSV
   EXPECT_GT(ReadMarkerCsv((dir / "out.csv").string()).frames.size(), 0u);
+  fs::remove_all(dir);
+}
+
+// A replay waiting through a long (legal) pause in its stream stops within 0.5 s of SIGTERM
+// and of SIGINT: it sleeps in slices of 0.1 s checking for the signal.
+TEST(ReplayRecord, ReplayHonoursSigtermAndSigintDuringALongPause) {
+  const fs::path dir = TempDir("interrupt");
+  // 0.1 s frames, then a 9 s pause (90 intervals, under the 100 allowed), then two more
+  std::ofstream(dir / "pause.csv") << "t,m0_x,m0_y,m0_z\n0,0,0,0\n0.1,0,0,0\n0.2,0,0,0\n"
+                                      "0.3,0,0,0\n9.3,0,0,0\n9.4,0,0,0\n";
+  for (const int sig : {SIGTERM, SIGINT}) {
+    const std::string partition = "interrupt_" + std::to_string(getpid()) + "_" +
+                                  std::to_string(sig);
+    ChildProcess replay(Cat({kBin + "/direct_sim", "replay", "--markers",
+                             (dir / "pause.csv").string(), "--wait-readers", "0"},
+                            testing::DdsArgs(33, partition)),
+                        (dir / ("replay" + std::to_string(sig) + ".log")).string());
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // in the pause by now
+    const auto sent = std::chrono::steady_clock::now();
+    replay.Kill(sig);
+    const int code = replay.Wait(5);
+    const double took =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
+    EXPECT_EQ(code, 1) << replay.Output();
+    EXPECT_LT(took, 0.5) << "signal " << sig << ": stopped after " << took << " s";
+    EXPECT_NE(replay.Output().find("interrupted"), std::string::npos) << replay.Output();
+  }
   fs::remove_all(dir);
 }
 

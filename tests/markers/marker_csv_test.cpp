@@ -66,6 +66,46 @@ void ExpectError(const std::string& text, const std::string& fragment) {
   }
 }
 
+TEST(MarkerCsv, SamplingGapsNameTheLine) {
+  std::istringstream in("t,m0_x,m0_y,m0_z\n0,0,0,0\n0.1,0,0,0\n0.2,0,0,0\n5.2,0,0,0\n5.3,0,0,0\n");
+  const MarkerStream s = ParseMarkerCsv(in, "gap.csv");
+  CheckMarkerSampling(s, "gap.csv", 100.0, 10.0);  // 50 x the median, 5 s: accepted
+  try {
+    CheckMarkerSampling(s, "gap.csv", 10.0, 10.0);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("gap.csv:5:1 (t): a gap of 5 s after t = 0.2 s, more "
+                                          "than 10 times the median frame interval (0.1 s)",
+                                          0),
+              0u)
+        << e.what();
+  }
+  try {
+    CheckMarkerSampling(s, "gap.csv", 100.0, 1.0);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("gap.csv:5:1 (t): a gap of 5 s after t = 0.2 s, more "
+                                          "than the 1 s allowed",
+                                          0),
+              0u)
+        << e.what();
+  }
+}
+
+TEST(MarkerCsv, HugeHeadersAndDevicesAreRefused) {
+  std::string header = "t";
+  for (int m = 0; m <= kMaxCsvMarkers; ++m) header += Str(",m", m, "_x,m", m, "_y,m", m, "_z");
+  ExpectError(header + "\n", "bad.csv:1: header has 3004 columns; at most 1000 markers");
+  try {
+    ReadMarkerCsv("/dev/zero");
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("/dev/zero: expected a regular file as the marker CSV", 0),
+              0u)
+        << e.what();
+  }
+}
+
 TEST(MarkerCsv, EveryMalformedCaseNamesFileLineAndColumn) {
   ExpectError("", "bad.csv:1: empty file");
   ExpectError("t,m0_x,m0_y\n0,1,2\n", "bad.csv:1: header has 3 columns");

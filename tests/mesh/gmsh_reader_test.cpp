@@ -218,6 +218,27 @@ TEST(GmshReader, NodeErrors) {
   ExpectError(Replace(kMsh41, "3 3 0 3\n", "3 3 0 4\n"), 21, "more nodes than the header's 6");
 }
 
+TEST(GmshReader, HeaderCountsAreCheckedAgainstTheFileSizeBeforeAllocating) {
+  // a header announcing 1e12 nodes was a bad_alloc (exit 1): now an error at its line
+  ExpectError(Replace(kMsh22, "$Nodes\n6", "$Nodes\n1000000000000"), 9,
+              "the header announces 1000000000000 nodes, more than");
+  ExpectError(Replace(kMsh22, "$Nodes\n6", "$Nodes\n100000"), 9,
+              "more than the rest of the file");
+  ExpectError(Replace(kMsh41, "3 6 10 99", "3 60000000 10 99"), 12,
+              "announces 60000000 nodes, more than the rest of the file");
+  ExpectError(Replace(kMsh41, "3 6 10 99", "3000000000000 6 10 99"), 12, "node blocks");
+}
+
+TEST(GmshReader, DevicesAreNotMeshFiles) {
+  try {
+    ReadGmshMesh("/dev/zero");
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("/dev/zero: expected a regular file", 0), 0u)
+        << e.what();
+  }
+}
+
 TEST(GmshReader, ElementErrors) {
   ExpectError(Replace(kMsh22, "4 4 2 1 3 10 20 30 40", "4 4 2 1 3 10 20 30 41"), 22,
               "unknown node tag 41");

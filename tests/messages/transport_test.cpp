@@ -44,6 +44,18 @@ TEST(Transport, BadConfigIsAnInputError) {
   c = LoopbackConfig();
   c.liveliness_lease_s = -1;
   EXPECT_THROW(Participant{c}, InputError);
+  // a 65,535-character partition crashed dds_create_writer: refused before DDS sees it
+  for (const std::string& partition : {std::string(65535, 'p'), std::string(65, 'p'),
+                                       std::string("a*"), std::string("a b"), std::string()}) {
+    c = LoopbackConfig();
+    c.partition = partition;
+    EXPECT_THROW(Participant{c}, InputError) << partition.size();
+  }
+  c = LoopbackConfig();
+  c.partition = std::string(64, 'p');
+  EXPECT_NO_THROW(c.Validate());
+  c.liveliness_lease_s = 1e300;
+  EXPECT_THROW(c.Validate(), InputError);
 }
 
 TEST(Transport, FramesArriveInOrderAndWallTimeIsStamped) {

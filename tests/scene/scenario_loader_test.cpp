@@ -105,8 +105,51 @@ TEST(ScenarioLoaderTest, TyposAreUnknownKeys) {
 }
 
 TEST(ScenarioLoaderTest, SectionsOfTheOtherProcessAreSkipped) {
-  EXPECT_EQ(LoadError(DefaultText() + "\ncontroller:\n  anything: [1, 2]\nprediction:\n  x: y\n"),
+  // the default scenario's own inverse_sim sections are replaced (a second "controller:" in
+  // the same file is a duplicate key, see below)
+  const std::string text = DefaultText();
+  const std::string direct_part = text.substr(0, text.find("# ---- inverse_sim"));
+  EXPECT_EQ(LoadError(direct_part + "\ncontroller:\n  anything: [1, 2]\nprediction:\n  x: y\n"),
             "");
+}
+
+TEST(ScenarioLoaderTest, DuplicateSectionsAndKeysAreErrors) {
+  const std::string section =
+      LoadError(DefaultText() + "\ncontroller:\n  anything: [1, 2]\n");
+  EXPECT_EQ(section.rfind("scenario.yaml:", 0), 0u) << section;
+  EXPECT_NE(section.find(": duplicate key controller (first at line "), std::string::npos)
+      << section;
+  const std::string key = LoadError(Edited("young_modulus: 5500", "young_modulus: 5500\n    young_modulus: 1"));
+  EXPECT_NE(key.find(": duplicate key patient.liver.young_modulus"), std::string::npos) << key;
+}
+
+TEST(ScenarioLoaderTest, PhysicalValuesAreBounded) {
+  EXPECT_EQ(LoadError(Edited("gravity: [0, 0, 0]", "gravity: [0, 0, -1.0e6]")),
+            "scenario.yaml: patient.gravity must be finite with a norm of at most 100 (m/s^2), "
+            "got [0, 0, -1e+06]");
+  EXPECT_EQ(LoadError(Edited("time_step: 0.02", "time_step: 1.0e-9")),
+            "scenario.yaml: patient.time_step must be in [0.0001, 0.1] (s), got 1e-09");
+  // 0.1 ms for 200 s: 2e6 steps (each value alone is within its bounds)
+  std::string long_run = Edited("duration: 20.0", "duration: 200");
+  long_run.replace(long_run.find("time_step: 0.02"), 15, "time_step: 0.0001");
+  const std::string steps = LoadError(long_run);
+  EXPECT_NE(steps.find("run.duration / patient.time_step must be at most 1e+06 steps"),
+            std::string::npos)
+      << steps;
+  EXPECT_EQ(LoadError(Edited("max_linear_speed: 0.05", "max_linear_speed: 1000")),
+            "scenario.yaml: robot.max_linear_speed must be <= 2 (m/s), got 1000");
+  EXPECT_EQ(LoadError(Edited("speed: 0.01", "speed: 30")),
+            "scenario.yaml: insertion.speed must be <= 0.5 (m/s), got 30");
+  EXPECT_EQ(LoadError(Edited("period: 4.0", "period: 1.0e5")),
+            "scenario.yaml: breathing.period must be in [0.5, 30] (s), got 100000");
+  EXPECT_EQ(LoadError(Edited("young_modulus: 5500", "young_modulus: 1.0e15")),
+            "scenario.yaml: patient.liver.young_modulus must be <= 1e+12 (Pa), got 1e+15");
+  const std::string partition = LoadError(Edited("partition: nsim", "partition: " + std::string(65535, 'p')));
+  EXPECT_EQ(partition.rfind("scenario.yaml: dds.partition must be 1..64 characters of [A-Za-z0-9_-]", 0), 0u)
+      << partition.substr(0, 200);
+  EXPECT_EQ(LoadError(Edited("partition: nsim", "partition: 'a b'")).rfind(
+                "scenario.yaml: dds.partition must be", 0),
+            0u);
 }
 
 }  // namespace

@@ -110,5 +110,42 @@ TEST(YamlReaderTest, ValidateAsRenamesTheKey) {
   EXPECT_EQ(error, "scenario.yaml: patient.liver.young_modulus must be > 0 (Pa), got -3");
 }
 
+TEST(YamlReaderTest, DuplicateKeysAreErrorsNamingTheLineAndThePath) {
+  // yaml-cpp alone keeps the first of two equal keys; the reader refuses the second
+  EXPECT_EQ(ErrorOf([] { YamlReader::LoadString("a: 1\nb: 2\na: 3\n", "dup.yaml"); }),
+            "dup.yaml:3: duplicate key a (first at line 1)");
+  const char* nested =
+      "patient:\n"
+      "  liver:\n"
+      "    young_modulus: 5500\n"
+      "    density: 1060\n"
+      "    young_modulus: 1\n";
+  EXPECT_EQ(ErrorOf([&] { YamlReader::LoadString(nested, "s.yaml"); }),
+            "s.yaml:5: duplicate key patient.liver.young_modulus (first at line 3)");
+  // in a flow map, inside a list element
+  EXPECT_EQ(ErrorOf([] {
+              YamlReader::LoadString("ribs:\n  - {center: [0, 0, 0]}\n  - {center: 1, center: 2}\n",
+                                     "f.yaml");
+            }),
+            "f.yaml:3: duplicate key ribs[1].center (first at line 3)");
+  // a duplicated section (a map value) is caught too
+  EXPECT_EQ(ErrorOf([] { YamlReader::LoadString("run:\n  a: 1\nrun:\n  b: 2\n", "r.yaml"); }),
+            "r.yaml:3: duplicate key run (first at line 1)");
+  // equal keys in different maps, and list elements that repeat, are fine
+  EXPECT_EQ(ErrorOf([] {
+              YamlReader::LoadString("a: {x: 1}\nb: {x: 1}\nc: [x, x]\nd: [{x: 1}, {x: 2}]\n",
+                                     "ok.yaml");
+            }),
+            "");
+  EXPECT_EQ(ErrorOf([] { YamlReader::LoadString(kDoc, "scenario.yaml"); }), "");
+}
+
+TEST(YamlReaderTest, DevicesAndDirectoriesAreRefusedAsScenarioFiles) {
+  const std::string error = ErrorOf([] { YamlReader::LoadFile("/dev/zero"); });
+  EXPECT_EQ(error.rfind("/dev/zero: expected a regular file", 0), 0u) << error;
+  const std::string dir = ErrorOf([] { YamlReader::LoadFile("/tmp"); });
+  EXPECT_EQ(dir.rfind("/tmp: expected a regular file", 0), 0u) << dir;
+}
+
 }  // namespace
 }  // namespace nsim
