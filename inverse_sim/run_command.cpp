@@ -55,7 +55,7 @@ int RunInverseSim(int argc, char** argv) {
       .Flag("ros2-io",
             "take markers, robot state and entry point from the ROS 2 topics and publish the "
             "targets there (/nsim/target_pose, /nsim/robot/joint_command); realtime")
-      .Option("ros2-idle", "S", "with --ros2-io: end when no markers came for S seconds", "5");
+      .Option("ros2-idle", "S", "with --ros2-io: end when no markers came for S seconds", "5")
       .Flag("check",
             "only read and check the scenario, its mesh and the options, then exit (0: valid, "
             "2: the reason)");
