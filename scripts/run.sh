@@ -78,44 +78,43 @@ cleanup() {
 trap cleanup EXIT
 trap 'echo "run: interrupted"; exit 130' INT TERM
 
+# direct_sim run TIMEOUT ARGS...: in the background, bounded by timeout(1) (a hung run cannot
+# outlive it), its progress lines shown as they come; sets direct_code when it has exited
+run_direct() {
+  local limit="$1"; shift
+  timeout -s KILL "$limit" "$bin/direct_sim" run --config "$scenario" --out "$out/direct" "$@" \
+    > "$out/direct.log" 2>&1 &
+  local dir=$!; pids+=("$dir")
+  tail -n +1 -f --pid="$dir" "$out/direct.log" &
+  local tailer=$!
+  direct_code=0; wait "$dir" || direct_code=$?
+  wait "$tailer" 2>/dev/null || true
+}
+
 if [ "$in_process" = 1 ]; then
   [ "$NSIM_MODE" = lockstep ] || { echo "run: --in-process runs in lockstep only (NSIM_MODE=$NSIM_MODE)" >&2; exit 2; }
   echo "run: closed loop in one process, scenario $scenario, prediction $prediction, lockstep"
   echo "run: results in $out"
-  timeout -s KILL 1800 "$bin/direct_sim" run --config "$scenario" --out "$out/direct" --in-process \
-    "${direct_args[@]}" "${controller_args[@]}" "${extra_direct[@]}" > "$out/direct.log" 2>&1 &
-  dir=$!; pids+=("$dir")
-  tail -n +1 -f --pid="$dir" "$out/direct.log" &
-  tailer=$!
-  direct_code=0; wait "$dir" || direct_code=$?
-  wait "$tailer" 2>/dev/null || true
+  run_direct 1800 --in-process "${direct_args[@]}" "${controller_args[@]}" "${extra_direct[@]}"
   pids=()
   inverse_code=$direct_code
 else
-echo "run: closed loop, scenario $scenario, prediction $prediction${NSIM_MODE:+, mode $NSIM_MODE}"
-echo "run: results in $out"
-"$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --timeout 600 --start-timeout 60 \
-  "${mode_args[@]}" "${controller_args[@]}" "${dds[@]}" > "$out/inverse.log" 2>&1 &
-inv=$!; pids+=("$inv")
-# direct_sim bounded by timeout(1) too: a hung run cannot outlive 10 minutes
-timeout -s KILL 600 "$bin/direct_sim" run --config "$scenario" --out "$out/direct" \
-  "${direct_args[@]}" "${extra_direct[@]}" "${dds[@]}" > "$out/direct.log" 2>&1 &
-dir=$!; pids+=("$dir")
-# progress: direct_sim's lines as they come, until it exits
-tail -n +1 -f --pid="$dir" "$out/direct.log" &
-tailer=$!
-direct_code=0; wait "$dir" || direct_code=$?
-wait "$tailer" 2>/dev/null || true
-inverse_code=0
-for _ in $(seq 1 100); do kill -0 "$inv" 2>/dev/null || break; sleep 0.1; done
-if kill -0 "$inv" 2>/dev/null; then
-  echo "run: inverse_sim did not stop after direct_sim finished; killing it (PID $inv)"
-  kill "$inv" 2>/dev/null || true
-fi
-wait "$inv" || inverse_code=$?
-pids=()
-echo "run: direct_sim exit $direct_code, inverse_sim exit $inverse_code (logs: direct.log, inverse.log)"
-tail -n 2 "$out/inverse.log"
+  echo "run: closed loop, scenario $scenario, prediction $prediction${NSIM_MODE:+, mode $NSIM_MODE}"
+  echo "run: results in $out"
+  "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --timeout 600 --start-timeout 60 \
+    "${mode_args[@]}" "${controller_args[@]}" "${dds[@]}" > "$out/inverse.log" 2>&1 &
+  inv=$!; pids+=("$inv")
+  run_direct 600 "${direct_args[@]}" "${extra_direct[@]}" "${dds[@]}"
+  inverse_code=0
+  for _ in $(seq 1 100); do kill -0 "$inv" 2>/dev/null || break; sleep 0.1; done
+  if kill -0 "$inv" 2>/dev/null; then
+    echo "run: inverse_sim did not stop after direct_sim finished; killing it (PID $inv)"
+    kill "$inv" 2>/dev/null || true
+  fi
+  wait "$inv" || inverse_code=$?
+  pids=()
+  echo "run: direct_sim exit $direct_code, inverse_sim exit $inverse_code (logs: direct.log, inverse.log)"
+  tail -n 2 "$out/inverse.log"
 fi
 
 if [ ! -f "$out/direct/summary.json" ]; then
