@@ -87,7 +87,7 @@ class PatientPump {
         SleepUntilMonotonic(start + (k + 1) * loop_.config().scene.time_step);
     }
     if (info_.exit == "completed") PublishFrame();  // the final state
-    if (info_.exit == "completed" && info_.controller_lost_time) info_.exit = "controller_lost";
+    if (info_.exit == "completed" && (given_up_ || lost_)) info_.exit = "controller_lost";
     info_.wall_time = MonotonicSeconds() - start;
     const bool ok = info_.exit == "completed";
     PublishStatus(ok ? RunState::kFinished : RunState::kFailed, ok ? "finished" : info_.exit);
@@ -202,6 +202,7 @@ class PatientPump {
     for (size_t i = 0; i < received_.size(); ++i) {
       const RobotTarget& r = received_[i];
       if (!FromOwner(writers_[i])) continue;
+      if (lost_ && !given_up_) Regain();  // its target: the owner is alive
       if (r.answers_seq < sent_at_.size() && sent_at_[r.answers_seq] > 0)
         info_.latency_ms.push_back(1e3 * (MonotonicSeconds() - sent_at_[r.answers_seq]));
       if (run_.mode == RunMode::kLockstep) {
@@ -221,11 +222,14 @@ class PatientPump {
       TakeTargets();
       if (run_.mode == RunMode::kLockstep) {
         const double end = MonotonicSeconds() + run_.lockstep_timeout;
-        while (!delay_.Ready(k) && !info_.controller_lost_time && !InterruptRequested() &&
-               MonotonicSeconds() < end) {
-          targets_->Wait(std::min(0.05, std::max(1e-3, end - MonotonicSeconds())));
+        // a lost controller may come back (a stall): the insertion waits for it, up to
+        // run.takeover_timeout from the loss, before the loss is final
+        while (!delay_.Ready(k) && !given_up_ && !InterruptRequested() &&
+               (MonotonicSeconds() < end || lost_)) {
+          targets_->Wait(0.05);
           TakeTargets();
           CheckController();
+          if (!lost_ && MonotonicSeconds() >= end) break;
         }
         if (!delay_.Ready(k)) ++info_.lockstep_timeouts;
         target = delay_.TakeFor(k);
@@ -242,21 +246,45 @@ class PatientPump {
     return true;
   }
 
-  // the controller's liveliness on the target reader; a loss is reported once, then the
-  // robot holds
+  // The controller's liveliness on the target reader. A loss makes the robot hold; a
+  // controller that comes back (its writers alive again: it was stalled, not killed) within
+  // run.takeover_timeout owns the robot again; after that the loss is final.
   void CheckController() {
-    if (info_.controller_lost_time) return;
+    if (given_up_) return;
     const transport::ReaderHealth health = targets_->health();
-    if (health.writers_alive > 0) seen_alive_ = true;
-    if (health.liveliness_lost > 0 || (seen_alive_ && health.writers_alive == 0)) {
-      info_.controller_lost_time = loop_.time();
+    const bool alive = health.writers_alive > 0;
+    if (alive) seen_alive_ = true;
+    const double now = MonotonicSeconds();
+    if (!lost_ && seen_alive_ && !alive) {
+      lost_ = true;
+      lost_at_ = now;
+      ++info_.controller_losses;
+      if (!info_.controller_lost_time) info_.controller_lost_time = loop_.time();
       loop_.set_controller_lost(true);
       message_ = health.liveliness_lost > 0
                      ? "inverse_sim lost (liveliness lease expired); robot holds"
                      : "inverse_sim left; robot holds";
       std::cerr << "direct_sim run: " << message_ << " at t = " << loop_.time() << " s\n";
       PublishStatus(RunState::kRunning, message_);
+    } else if (lost_ && alive) {
+      Regain();
+    } else if (lost_ && now - lost_at_ > run_.takeover_timeout) {
+      given_up_ = true;
+      message_ = "inverse_sim did not come back; robot holds to the end";
+      std::cerr << "direct_sim run: " << message_ << "\n";
+      PublishStatus(RunState::kRunning, message_);
     }
+  }
+
+  // the lost controller is back (alive again, or a target of it arrived)
+  void Regain() {
+    lost_ = false;
+    ++info_.controller_returns;
+    loop_.set_controller_lost(false);
+    message_ = "inverse_sim back; it owns the robot again";
+    std::cerr << "direct_sim run: " << message_ << " at t = " << loop_.time() << " s (after "
+              << MonotonicSeconds() - lost_at_ << " s)\n";
+    PublishStatus(RunState::kRunning, message_);
   }
 
   PatientLoop& loop_;
@@ -278,7 +306,8 @@ class PatientPump {
   uint64_t owner_ = 0;  // ParticipantId of the controller that owns the robot
   std::map<uint64_t, uint64_t> writer_participant_;
   std::vector<double> sent_at_;  // monotonic time each frame was published (s), by seq
-  bool seen_alive_ = false;
+  bool seen_alive_ = false, lost_ = false, given_up_ = false;
+  double lost_at_ = 0.0;  // monotonic time of the current loss (s)
   std::string message_;
 };
 

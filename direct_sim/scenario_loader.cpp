@@ -98,6 +98,8 @@ void RunConfig::Validate() const {
   if (view_every < 1) throw InputError(Str("run.view_every must be >= 1, got ", view_every));
   if (!(status_period > 0))
     throw InputError(Str("run.status_period must be > 0 (s), got ", status_period));
+  if (!(takeover_timeout > 0))
+    throw InputError(Str("run.takeover_timeout must be > 0 (s), got ", takeover_timeout));
   // Upper bounds: a simulated hour is 180,000 steps at 20 ms (the step count is bounded
   // separately); a latency of 1000 steps is 20 s, more than the run's breathing cycles; a
   // peer silent for 10 min (lockstep) or an hour (start) is gone; statuses every minute at
@@ -109,6 +111,7 @@ void RunConfig::Validate() const {
   CheckAtMost(vtk_every, 1e6, "run.vtk_every", "steps");
   CheckAtMost(view_every, 1e6, "run.view_every", "steps");
   CheckAtMost(status_period, 60.0, "run.status_period", "s");
+  CheckAtMost(takeover_timeout, 3600.0, "run.takeover_timeout", "s");
 }
 
 const std::vector<std::string>& OtherProcessSections() {

@@ -39,6 +39,10 @@ struct RunConfig {
   bool video = true;           ///< render the view (live window or video file)
   int view_every = 2;          ///< render every N steps, >= 1
   double status_period = 0.5;  ///< SimStatus period (s wall), > 0
+  /// A controller lost (its liveliness lease expired: killed, hung, stopped) may come back
+  /// within this time (s wall), > 0: the robot holds and, in lockstep, the insertion waits for
+  /// it; after it the loss is final (the robot holds to the end, exit controller_lost).
+  double takeover_timeout = 30.0;
 
   /// Throws InputError "run.<key> ...".
   void Validate() const;

@@ -13,6 +13,8 @@
 namespace nsim {
 namespace {
 
+constexpr double kDirectGrace_s = 3.0;  // direct_sim not alive for this long: lost
+
 class ControllerPump {
  public:
   ControllerPump(ControllerLoop& loop, ControllerRecorder& recorder,
@@ -56,10 +58,17 @@ class ControllerPump {
         info_.ending = "direct_finished";
         return Finish(0);
       }
-      if (seen_direct_ && frames_.health().liveliness_lost > 0) {
-        std::fprintf(stderr, "inverse_sim: direct_sim lost (liveliness lease expired)\n");
-        info_.ending = "direct_lost";
-        return Finish(1);
+      // direct_sim is lost when its writer stays not alive for kDirectGrace_s: a process that
+      // was itself stopped (SIGSTOP) may see the lease expire for a moment when it resumes
+      if (seen_direct_ && frames_.health().writers_alive == 0 && !finishing_) {
+        if (direct_gone_since_ < 0) direct_gone_since_ = now;
+        if (now - direct_gone_since_ > kDirectGrace_s) {
+          std::fprintf(stderr, "inverse_sim: direct_sim lost (liveliness lease expired)\n");
+          info_.ending = "direct_lost";
+          return Finish(1);
+        }
+      } else {
+        direct_gone_since_ = -1.0;
       }
       if (InterruptRequested()) {
         info_.ending = "interrupted";
@@ -211,7 +220,7 @@ class ControllerPump {
   bool seen_direct_ = false, finishing_ = false;
   uint64_t final_seq_ = 0;
   int64_t last_answered_ = -1;
-  double finish_deadline_ = 0.0, last_status_at_ = 0.0;
+  double finish_deadline_ = 0.0, last_status_at_ = 0.0, direct_gone_since_ = -1.0;
   std::string last_error_;
 };
 

@@ -154,6 +154,8 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
                   {"hold_steps", hold_steps_},
                   {"lockstep_timeouts", info.lockstep_timeouts}};
   j["controller_lost"] = info.controller_lost_time.has_value();
+  j["controller_losses"] = info.controller_losses;
+  j["controller_returns"] = info.controller_returns;
   j["controller_lost_time_s"] =
       info.controller_lost_time ? json(*info.controller_lost_time) : json(nullptr);
   j["max_rib_penetration_mm"] = 1e3 * max_rib_penetration_;

@@ -39,7 +39,8 @@ struct PatientRunInfo {
   /// rejected before the gate, in all and by writer (hex instance handle)
   uint64_t foreign_targets = 0;
   std::map<std::string, uint64_t> foreign_by_writer;
-  std::optional<double> controller_lost_time;  ///< simulated time the controller was lost (s)
+  std::optional<double> controller_lost_time;  ///< simulated time it was first lost (s)
+  uint64_t controller_losses = 0, controller_returns = 0;  ///< losses, and comebacks (stalls)
   bool video = false, png = false;  ///< outputs written
   int vtk_snapshots = 0;
 };

@@ -231,9 +231,47 @@ TEST(ClosedLoop, AnInjectorOfTargetsMovesTheRobotZeroMillimetres) {
       << "the injector changed the run";
 }
 
+// A controller stopped (SIGSTOP) for 3 s mid-insertion, longer than its 1 s liveliness lease:
+// direct_sim notices the loss, holds the robot and waits; the controller resumes (SIGCONT),
+// owns the robot again and catches up; in lockstep the run ends exactly as an undisturbed one
+// (the same timeseries.csv as the in-process run, byte for byte).
+TEST(ClosedLoop, AStalledControllerTakesOverAgainAndTheRunIsUnchanged) {
+  const fs::path dir = TempDir("closed_loop_stall");
+  const fs::path scenario = WriteScenario(dir, {});
+  Loop loop(dir, "stall", scenario, {"--duration", "5"}, {"--prediction", "off", "--lease", "1"});
+  ChildProcess alone(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
+                          (dir / "alone/direct").string(), "--in-process", "--duration", "5",
+                          "--prediction", "off", "--no-video", "--quiet"},
+                         {}),
+                     (dir / "alone.log").string());
+  // stop the controller once the insertion is under way (frames of 1 s simulated written)
+  const fs::path csv = loop.out / "direct/timeseries.csv";
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < end) {
+    const std::string text = ReadText(csv);
+    if (std::count(text.begin(), text.end(), '\n') > 50) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  loop.inverse->Kill(SIGSTOP);
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  loop.inverse->Kill(SIGCONT);
+  ASSERT_EQ(loop.direct->Wait(80.0), 0) << loop.direct->Output();
+  EXPECT_EQ(loop.inverse->Wait(20.0), 0) << loop.inverse->Output();
+  ASSERT_EQ(alone.Wait(60.0), 0) << alone.Output();
+  const json d = loop.DirectSummary();
+  EXPECT_EQ(d["exit"], "completed");
+  EXPECT_GE(d["controller_losses"].get<int>(), 1) << loop.direct->Output();
+  EXPECT_EQ(d["controller_returns"], d["controller_losses"]);
+  EXPECT_NE(loop.direct->Output().find("inverse_sim back"), std::string::npos);
+  EXPECT_TRUE(loop.Timeseries() == ReadText(dir / "alone/direct/timeseries.csv"))
+      << "the stall changed the run";
+}
+
 TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
   const fs::path dir = TempDir("closed_loop_kill");
-  const fs::path scenario = WriteScenario(dir, {});
+  // a killed controller does not come back: the loss is final after 2 s
+  const fs::path scenario =
+      WriteScenario(dir, {{"takeover_timeout: 30.0", "takeover_timeout: 2.0"}});
   Loop loop(dir, "kill", scenario, {"--duration", "5"}, {"--prediction", "off", "--lease", "0.5"});
   // kill the controller once the needle is in the skin (phase >= 1) and moving
   const fs::path csv = loop.out / "direct/timeseries.csv";
