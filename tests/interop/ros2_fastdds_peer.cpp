@@ -302,7 +302,7 @@ int Play(Peer& peer, std::map<std::string, std::string>& a, double timeout) {
   std::fflush(stdout);
   const auto stream_start = Clock::now();
   double first = -1, t = -1;
-  int dummy = 0;
+  int targets_seen = 0;
   for (const std::string& line : lines) {
     if (line.empty() || line[0] == 'D') continue;
     if (line[0] == 'M') {  // pace the frames by their stamps
@@ -314,12 +314,12 @@ int Play(Peer& peer, std::map<std::string, std::string>& a, double timeout) {
       std::this_thread::sleep_until(stream_start + std::chrono::duration<double>(stamp - first));
     }
     Publish(line, w, &t);
-    recorder.Take(&dummy);
+    recorder.Take(&targets_seen);
   }
   const double idle = a.count("--idle") ? std::stod(a["--idle"]) : 3.0;
   auto last = Clock::now();
   while (Seconds(last) < idle && Seconds(start) < timeout)
-    if (recorder.Take(&dummy) > 0) last = Clock::now();
+    if (recorder.Take(&targets_seen) > 0) last = Clock::now();
     else std::this_thread::sleep_for(std::chrono::milliseconds(5));
   std::printf("play: done\n");
   return Seconds(start) < timeout ? 0 : 1;
