@@ -3,13 +3,13 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <map>
 #include <memory>
 
 #include "common/core/clock.h"
 #include "common/core/error.h"
 #include "common/core/interrupt.h"
 #include "common/scene/lockstep_targets.h"
+#include "direct_sim/controller_watch.h"
 
 namespace nsim {
 namespace {
@@ -22,8 +22,8 @@ class PatientPump {
  public:
   PatientPump(PatientLoop& loop, PatientOutputs& outputs, const RunConfig& run,
               const transport::TransportConfig& transport,
-              const std::optional<transport::Ros2Config>& ros2, uint64_t scenario_hash,
-              bool quiet, PatientRunInfo* info)
+              const std::optional<transport::Ros2Config>& ros2, uint64_t scenario_hash, bool quiet,
+              PatientRunInfo* info)
       : loop_(loop),
         outputs_(outputs),
         run_(run),
@@ -41,10 +41,15 @@ class PatientPump {
       // lockstep: every answer is kept until taken (the controller may answer frame k - 1
       // before this process took the answer to k - 2)
       targets_ = std::make_unique<transport::Reader<RobotTarget>>(
-          participant_, run.mode == RunMode::kLockstep ? transport::Qos::kLossless
-                                                       : transport::Qos::kTarget);
+          participant_,
+          run.mode == RunMode::kLockstep ? transport::Qos::kLossless : transport::Qos::kTarget);
       status_in_ =
           std::make_unique<transport::Reader<SimStatus>>(participant_, transport::Qos::kStatus);
+      watch_ = std::make_unique<ControllerWatch>(*targets_, loop_, run_, info_,
+                                                 [this](const std::string& message) {
+                                                   message_ = message;
+                                                   PublishStatus(RunState::kRunning, message_);
+                                                 });
     }
     if (ros2) {
       transport::Ros2MirrorTopics topics;
@@ -87,7 +92,8 @@ class PatientPump {
         SleepUntilMonotonic(start + (k + 1) * loop_.config().scene.time_step);
     }
     if (info_.exit == "completed") PublishFrame();  // the final state
-    if (info_.exit == "completed" && (given_up_ || lost_)) info_.exit = "controller_lost";
+    if (info_.exit == "completed" && watch_ && (watch_->given_up() || watch_->lost()))
+      info_.exit = "controller_lost";
     info_.wall_time = MonotonicSeconds() - start;
     const bool ok = info_.exit == "completed";
     PublishStatus(ok ? RunState::kFinished : RunState::kFailed, ok ? "finished" : info_.exit);
@@ -110,8 +116,10 @@ class PatientPump {
     const double end = MonotonicSeconds() + run_.start_timeout;
     bool matched = frames_.WaitForReaders(1, run_.start_timeout);
     while (matched && targets_->health().writers_matched == 0) {
-      if (MonotonicSeconds() > end || InterruptRequested()) matched = false;
-      else targets_->Wait(0.05);
+      if (MonotonicSeconds() > end || InterruptRequested())
+        matched = false;
+      else
+        targets_->Wait(0.05);
     }
     if (!matched) {
       std::cerr << "direct_sim run: no controller (SensorFrame reader and RobotTarget writer) "
@@ -122,7 +130,7 @@ class PatientPump {
       return 1;
     }
     const std::optional<SimStatus> peer =
-        transport::WaitForPeerRunning(*status_in_, "direct_sim", kPeerSettle_s, &owner_);
+        transport::WaitForPeerRunning(*status_in_, "direct_sim", kPeerSettle_s, watch_->owner());
     if (!peer) {
       if (!quiet_)
         std::printf("run: the controller sent no running status; starting after %.1f s\n",
@@ -136,8 +144,8 @@ class PatientPump {
     }
     if (peer->scenario_hash != 0 && peer->scenario_hash != status_.scenario_hash) {
       std::cerr << "direct_sim run: the controller runs another scenario (shared-part hash "
-                << std::hex << peer->scenario_hash << ", ours " << status_.scenario_hash
-                << std::dec << "): give both processes the same shared: section\n";
+                << std::hex << peer->scenario_hash << ", ours " << status_.scenario_hash << std::dec
+                << "): give both processes the same shared: section\n";
       return 2;
     }
     return 0;
@@ -176,24 +184,6 @@ class PatientPump {
     return true;
   }
 
-  // One owner of the robot: the process whose running status opened the run (bound at the
-  // handshake; a controller that sends no status is bound by its first target). A target from
-  // any other process is rejected and counted by writer, and never reaches the gate.
-  bool FromOwner(uint64_t writer) {
-    auto it = writer_participant_.find(writer);
-    if (it == writer_participant_.end())
-      it = writer_participant_.emplace(writer, targets_->ParticipantOfWriter(writer)).first;
-    if (owner_ == 0 && it->second != 0) owner_ = it->second;
-    if (it->second != 0 && it->second == owner_) return true;
-    ++info_.foreign_targets;
-    ++info_.foreign_by_writer[Str(std::hex, writer)];
-    if (info_.foreign_targets == 1)
-      std::cerr << "direct_sim run: rejecting targets from a process that does not own the robot "
-                   "(writer "
-                << std::hex << writer << std::dec << ")\n";
-    return false;
-  }
-
   // takes the targets that arrived; notes the loop latency (frame sent -> answer received)
   void TakeTargets() {
     received_.clear();
@@ -201,8 +191,7 @@ class PatientPump {
     targets_->Take(received_, &writers_);
     for (size_t i = 0; i < received_.size(); ++i) {
       const RobotTarget& r = received_[i];
-      if (!FromOwner(writers_[i])) continue;
-      if (lost_ && !given_up_) Regain();  // its target: the owner is alive
+      if (!watch_->FromOwner(writers_[i])) continue;
       if (r.answers_seq < sent_at_.size() && sent_at_[r.answers_seq] > 0)
         info_.latency_ms.push_back(1e3 * (MonotonicSeconds() - sent_at_[r.answers_seq]));
       if (run_.mode == RunMode::kLockstep) {
@@ -218,18 +207,18 @@ class PatientPump {
   bool StepOnce(int64_t k) {
     std::optional<RobotTarget> target;
     if (targets_) {
-      CheckController();
+      watch_->Check();
       TakeTargets();
       if (run_.mode == RunMode::kLockstep) {
         const double end = MonotonicSeconds() + run_.lockstep_timeout;
         // a lost controller may come back (a stall): the insertion waits for it, up to
         // run.takeover_timeout from the loss, before the loss is final
-        while (!delay_.Ready(k) && !given_up_ && !InterruptRequested() &&
-               (MonotonicSeconds() < end || lost_)) {
+        while (!delay_.Ready(k) && !watch_->given_up() && !InterruptRequested() &&
+               (MonotonicSeconds() < end || watch_->lost())) {
           targets_->Wait(0.05);
           TakeTargets();
-          CheckController();
-          if (!lost_ && MonotonicSeconds() >= end) break;
+          watch_->Check();
+          if (!watch_->lost() && MonotonicSeconds() >= end) break;
         }
         if (!delay_.Ready(k)) ++info_.lockstep_timeouts;
         target = delay_.TakeFor(k);
@@ -244,47 +233,6 @@ class PatientPump {
       return false;
     }
     return true;
-  }
-
-  // The controller's liveliness on the target reader. A loss makes the robot hold; a
-  // controller that comes back (its writers alive again: it was stalled, not killed) within
-  // run.takeover_timeout owns the robot again; after that the loss is final.
-  void CheckController() {
-    if (given_up_) return;
-    const transport::ReaderHealth health = targets_->health();
-    const bool alive = health.writers_alive > 0;
-    if (alive) seen_alive_ = true;
-    const double now = MonotonicSeconds();
-    if (!lost_ && seen_alive_ && !alive) {
-      lost_ = true;
-      lost_at_ = now;
-      ++info_.controller_losses;
-      if (!info_.controller_lost_time) info_.controller_lost_time = loop_.time();
-      loop_.set_controller_lost(true);
-      message_ = health.liveliness_lost > 0
-                     ? "inverse_sim lost (liveliness lease expired); robot holds"
-                     : "inverse_sim left; robot holds";
-      std::cerr << "direct_sim run: " << message_ << " at t = " << loop_.time() << " s\n";
-      PublishStatus(RunState::kRunning, message_);
-    } else if (lost_ && alive) {
-      Regain();
-    } else if (lost_ && now - lost_at_ > run_.takeover_timeout) {
-      given_up_ = true;
-      message_ = "inverse_sim did not come back; robot holds to the end";
-      std::cerr << "direct_sim run: " << message_ << "\n";
-      PublishStatus(RunState::kRunning, message_);
-    }
-  }
-
-  // the lost controller is back (alive again, or a target of it arrived)
-  void Regain() {
-    lost_ = false;
-    ++info_.controller_returns;
-    loop_.set_controller_lost(false);
-    message_ = "inverse_sim back; it owns the robot again";
-    std::cerr << "direct_sim run: " << message_ << " at t = " << loop_.time() << " s (after "
-              << MonotonicSeconds() - lost_at_ << " s)\n";
-    PublishStatus(RunState::kRunning, message_);
   }
 
   PatientLoop& loop_;
@@ -303,11 +251,8 @@ class PatientPump {
   uint64_t frames_sent_ = 0;
   std::vector<RobotTarget> received_;
   std::vector<uint64_t> writers_;
-  uint64_t owner_ = 0;  // ParticipantId of the controller that owns the robot
-  std::map<uint64_t, uint64_t> writer_participant_;
-  std::vector<double> sent_at_;  // monotonic time each frame was published (s), by seq
-  bool seen_alive_ = false, lost_ = false, given_up_ = false;
-  double lost_at_ = 0.0;  // monotonic time of the current loss (s)
+  std::unique_ptr<ControllerWatch> watch_;  // the robot's owner and its liveliness
+  std::vector<double> sent_at_;             // monotonic time each frame was published (s), by seq
   std::string message_;
 };
 
