@@ -164,11 +164,10 @@ class PatientPump {
     status_.stamp.seq++;
   }
 
-  // publishes the loop's current frame and logs it; false when the state is not finite
+  // publishes the loop's current frame and logs it; false when the state is not plausible
   bool PublishFrame() {
-    if (!loop_.finite()) {
-      std::cerr << "direct_sim run: the simulation diverged at t = " << loop_.time() << " s\n";
-      info_.exit = "diverged";
+    if (!loop_.healthy()) {
+      ReportFault(loop_, &info_);
       return false;
     }
     const SensorFrame& frame = loop_.frame();

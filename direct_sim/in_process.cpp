@@ -38,9 +38,8 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, Contro
         code = 1;
         break;
       }
-      if (!patient.finite()) {
-        std::cerr << "direct_sim run: the simulation diverged at t = " << patient.time() << " s\n";
-        pinfo->exit = "diverged";
+      if (!patient.healthy()) {
+        ReportFault(patient, pinfo);
         code = 1;
         break;
       }
@@ -51,9 +50,8 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, Contro
       patient.Step(delay.TakeFor(k));
       outputs.OnStep(patient, steps);
     }
-    if (code == 0 && !patient.finite()) {
-      std::cerr << "direct_sim run: the simulation diverged at t = " << patient.time() << " s\n";
-      pinfo->exit = "diverged";
+    if (code == 0 && !patient.healthy()) {
+      ReportFault(patient, pinfo);
       code = 1;
     } else if (code == 0) {  // the final state, answered like over DDS
       outputs.OnFrame(patient);

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 
 #include "common/core/clock.h"
 #include "common/mesh/vtk_writer.h"
@@ -80,6 +81,13 @@ void PatientOutputs::Finish(const PatientLoop& loop, PatientRunInfo* info) {
       info->exit.c_str(), static_cast<long long>(loop.steps()), loop.time(), info->wall_time,
       recorder_.median_step_ms(), 1e3 * r.distance, r.skin.punctured ? "punctured" : "intact",
       r.liver.punctured ? "punctured" : "intact");
+}
+
+void ReportFault(const PatientLoop& loop, PatientRunInfo* info) {
+  std::cerr << "direct_sim run: stopped at t = " << loop.time()
+            << " s, the state is not plausible: " << loop.fault() << "\n";
+  info->exit = "implausible_state";
+  info->fault = loop.fault();
 }
 
 }  // namespace nsim

@@ -44,4 +44,8 @@ class PatientOutputs {
   double next_progress_ = 0.0;
 };
 
+/// Reports the state the physics watchdog refused (PatientLoop::fault) on stderr and in `info`
+/// (exit "implausible_state"): the run ends as a runtime failure.
+void ReportFault(const PatientLoop& loop, PatientRunInfo* info);
+
 }  // namespace nsim

@@ -63,13 +63,14 @@ struct DirectScenario {
   /// Safety gate; its speed and workspace limits are the robot's (copied by the loader).
   TargetGateConfig safety;
   RunConfig run;
+  WatchdogConfig watchdog;  ///< the plausible bounds of the state
   ViewerConfig view;
   int dds_domain = 0;
   std::string dds_partition = "nsim";
 
   /// The patient loop's config (controller = false: insert along the path without targets).
   PatientLoopConfig LoopConfig(bool controller) const {
-    return {scene, robot, insertion, safety, controller};
+    return {scene, robot, insertion, safety, controller, watchdog};
   }
 };
 

@@ -228,6 +228,14 @@ void ReadSafety(const YamlReader& node, TargetGateConfig* safety) {
     safety->over_limit = action == 0 ? OverLimitAction::kClamp : OverLimitAction::kReject;
 }
 
+void ReadWatchdog(const YamlReader& node, WatchdogConfig* w) {
+  node.CheckKeys({"enabled", "max_displacement", "max_kinetic_energy", "inversion_check_every"});
+  node.Read("enabled", &w->enabled);
+  node.Read("max_displacement", &w->max_displacement);
+  node.Read("max_kinetic_energy", &w->max_kinetic_energy);
+  node.Read("inversion_check_every", &w->inversion_check_every);
+}
+
 void ReadDds(const YamlReader& node, int* domain, std::string* partition) {
   node.CheckKeys({"domain", "partition"});
   node.Read("domain", domain);

@@ -26,6 +26,8 @@ void ReadInsertion(const YamlReader& node, InsertionConfig* ins);
 void ReadSafety(const YamlReader& node, TargetGateConfig* safety);
 /// run: duration, mode, timeouts, outputs.
 void ReadRun(const YamlReader& node, RunConfig* run);
+/// watchdog: the plausible bounds of the state (PhysicsWatchdog).
+void ReadWatchdog(const YamlReader& node, WatchdogConfig* w);
 /// view: camera and image.
 void ReadView(const YamlReader& node, ViewerConfig* v);
 /// dds: domain and partition.

@@ -46,6 +46,20 @@ double CalcElasticEnergy(const FemModel& model, const FemState& state) {
   return energy;
 }
 
+int CountInvertedTets(const FemModel& model, const FemState& state) {
+  int inverted = 0;
+  const auto& tets = model.get_mesh().tets;
+  // det F = (current signed volume) / (rest volume), and every rest volume is > 0: the sign of
+  // the signed volume decides
+  for (const Eigen::Vector4i& t : tets) {
+    const Eigen::Vector3d a = state.x.col(t[1]) - state.x.col(t[0]);
+    const Eigen::Vector3d b = state.x.col(t[2]) - state.x.col(t[0]);
+    const Eigen::Vector3d c = state.x.col(t[3]) - state.x.col(t[0]);
+    if (!(a.dot(b.cross(c)) > 0)) ++inverted;  // a NaN counts too
+  }
+  return inverted;
+}
+
 double CalcGravitationalEnergy(const FemModel& model, const FemState& state) {
   return -(model.get_config().gravity.transpose() * state.x * model.get_lumped_mass()).value();
 }

@@ -55,6 +55,10 @@ double CalcElasticEnergy(const FemModel& model, const FemState& state);
 /// Gravitational potential energy -sum_i m_i g . x_i (J), zero at the world origin.
 double CalcGravitationalEnergy(const FemModel& model, const FemState& state);
 
+/// Number of elements whose deformation gradient at state.x has det F <= 0 (inverted or
+/// flattened: no physical state of the continuum has one).
+int CountInvertedTets(const FemModel& model, const FemState& state);
+
 /// Elastic forces (N), 3 x #nodes, at state.x with fresh polar rotations (zero for rigid motions).
 Eigen::Matrix3Xd CalcElasticForces(const FemModel& model, const FemState& state);
 

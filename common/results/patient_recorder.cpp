@@ -94,6 +94,7 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   j["scenario"] = info.scenario;
   j["scenario_hash"] = info.scenario_hash;
   j["exit"] = info.exit;
+  if (!info.fault.empty()) j["fault"] = info.fault;  // why the watchdog stopped the run
   j["mode"] = info.realtime ? "realtime" : "lockstep";
   j["transport"] = info.transport;
   j["controller"] = c.controller;

@@ -30,7 +30,10 @@ struct PatientRunInfo {
   bool realtime = false;       ///< realtime (wall-clock paced) or lockstep
   int latency_steps = 0;       ///< lockstep latency d (steps)
   std::string transport = "dds";  ///< "dds" or "in_process"
-  std::string exit = "completed";  ///< completed, diverged, interrupted, controller_lost, ...
+  /// completed, diverged (a solver failed), implausible_state (the physics watchdog stopped the
+  /// run: `fault` says why), interrupted, controller_lost, ...
+  std::string exit = "completed";
+  std::string fault;  ///< PatientLoop::fault() when the watchdog stopped the run
   double wall_time = 0.0;      ///< (s)
   std::vector<double> latency_ms;  ///< per received target: frame sent -> target received (ms)
   uint64_t lockstep_timeouts = 0;  ///< lockstep steps that went on without the awaited answer

@@ -26,6 +26,10 @@ PatientLoop::PatientLoop(const PatientLoopConfig& config, const TetMesh& liver_m
   plan_ = MakeInsertionPlan(sc.entry_W, sc.target_W, needle, config_.insertion.approach_distance);
   robot_ = std::make_unique<RobotDriver>(config_.robot, plan_.CalcFlangePose(0.0));
   scene_ = std::make_unique<PatientScene>(sc, liver_mesh, skin_mesh, robot_->X_WE());
+  std::vector<Eigen::Vector3d> rest_markers;
+  scene_->CalcMarkerPositions(&rest_markers);
+  watchdog_ = std::make_unique<PhysicsWatchdog>(config_.watchdog, scene_->CalcTargetPosition(),
+                                                rest_markers);
   Sample();
 }
 
@@ -57,9 +61,19 @@ void PatientLoop::Sample() {
   r.phase = r.liver.punctured ? 2 : r.skin.punctured ? 1 : 0;
   r.holding = holding_;
 
-  bool finite = r.tip.allFinite() && r.target.allFinite() && f.X_WE.matrix().allFinite();
-  for (const Eigen::Vector3d& p : f.p_WM) finite = finite && p.allFinite();
-  finite_ = finite_ && finite;
+  if (fault_.empty()) {
+    WatchdogInput in;
+    in.step = steps_;
+    in.target = &r.target;
+    in.markers = &f.p_WM;
+    in.tip = &r.tip;
+    in.liver = &scene_->model().liver();
+    in.liver_state = &scene_->state().liver;
+    in.skin = &scene_->model().skin();
+    in.skin_state = &scene_->state().skin;
+    fault_ = watchdog_->Check(in);
+    if (fault_.empty() && !f.X_WE.matrix().allFinite()) fault_ = "the robot's pose is not finite";
+  }
   gate_.NotePublishedFrame(f.stamp.seq, f.stamp.sim_time);
 }
 

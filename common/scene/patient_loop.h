@@ -14,10 +14,12 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include "common/core/samples.h"
 #include "common/mesh/tet_mesh.h"
 #include "common/scene/patient_scene.h"
+#include "common/scene/physics_watchdog.h"
 #include "common/scene/robot_driver.h"
 #include "common/scene/target_gate.h"
 
@@ -43,6 +45,8 @@ struct PatientLoopConfig {
   TargetGateConfig safety;
   /// false: no controller, the robot follows the planned path at insertion.speed.
   bool controller = true;
+  /// The plausible bounds of the state (PhysicsWatchdog).
+  WatchdogConfig watchdog;
 };
 
 /// The truth of the current state, for logs and summaries (not sent to the controller).
@@ -79,9 +83,11 @@ class PatientLoop {
   const SensorFrame& frame() const { return frame_; }
   /// The truth of the current state.
   const PatientRecord& record() const { return record_; }
-  /// False once a state has a non-finite marker, tip or target (the physics diverged): the
-  /// caller stops the run as a runtime failure.
-  bool finite() const { return finite_; }
+  /// Empty while every state was plausible; else why the first one that was not is not (a
+  /// non-finite value, or a bound of config.watchdog broken): the caller stops the run as a
+  /// runtime failure and reports it.
+  const std::string& fault() const { return fault_; }
+  bool healthy() const { return fault_.empty(); }
 
   /// Passes a target through the gate; an accepted one becomes the robot's command. Returns
   /// the gate's decision.
@@ -114,7 +120,9 @@ class PatientLoop {
   std::unique_ptr<PatientScene> scene_;
   std::optional<RobotTarget> command_;
   double bevel_angle_ = 0.0;
-  bool controller_lost_ = false, holding_ = false, finite_ = true;
+  std::unique_ptr<PhysicsWatchdog> watchdog_;
+  std::string fault_;
+  bool controller_lost_ = false, holding_ = false;
   uint64_t applied_seq_ = SensorFrame::kNoTarget;
   int64_t steps_ = 0;
   SensorFrame frame_;

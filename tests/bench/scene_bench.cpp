@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "common/scene/patient_scene.h"
+#include "common/scene/physics_watchdog.h"
 #include "common/scene/robot_driver.h"
 #include "direct_sim/scenario_loader.h"
 #include "tests/bench/step_times.h"
@@ -148,6 +149,28 @@ void RegisterSequences() {
       })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
     }
 }
+
+// the physics watchdog's check of one state (patient loop, every step): bounds, kinetic
+// energies, and the inverted-element count of the liver and the skin
+void BM_WatchdogCheck(benchmark::State& state) {
+  Fixture f(static_cast<int>(state.range(0)));
+  std::vector<Eigen::Vector3d> markers;
+  f.scene->CalcMarkerPositions(&markers);
+  const Eigen::Vector3d target = f.scene->CalcTargetPosition(), tip = f.scene->CalcTipPosition();
+  const PhysicsWatchdog dog(WatchdogConfig{}, target, markers);
+  for (int i = 0; i < 20; ++i) f.Step();
+  WatchdogInput in;
+  in.target = &target;
+  in.markers = &markers;
+  in.tip = &tip;
+  in.liver = &f.scene->model().liver();
+  in.liver_state = &f.scene->state().liver;
+  in.skin = &f.scene->model().skin();
+  in.skin_state = &f.scene->state().skin;
+  for (auto _ : state) benchmark::DoNotOptimize(dog.Check(in));
+  state.counters["tets"] = f.scene->model().liver().num_tets() + f.scene->model().skin().num_tets();
+}
+BENCHMARK(BM_WatchdogCheck)->Arg(2660)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace nsim

@@ -93,6 +93,27 @@ TEST(DirectRun, BadScenarioExitsWithTwoAndNamesTheKey) {
       << run.Output();
 }
 
+// a state outside the watchdog's bounds ends the run as a failure that says why, never as
+// "completed": the breathing moves the liver ~12 mm, beyond a 2 mm bound
+TEST(DirectRun, AnImplausibleStateStopsTheRunWithTheReason) {
+  const fs::path dir = TempDir("direct_run_watchdog");
+  const fs::path scenario = WriteScenario(
+      dir, {{"random_seed: 1", "random_seed: 1\nwatchdog:\n  max_displacement: 0.002"}});
+  ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
+                        (dir / "out").string(), "--no-controller", "--duration", "5", "--mode",
+                        "lockstep", "--quiet"},
+                       testing::DdsArgs(41, "direct_run_wd_" + std::to_string(getpid()))),
+                   (dir / "run.log").string());
+  EXPECT_EQ(run.Wait(60.0), 1);
+  EXPECT_NE(run.Output().find("the state is not plausible"), std::string::npos) << run.Output();
+  const json s = json::parse(ReadText(dir / "out/summary.json"));
+  EXPECT_EQ(s["exit"], "implausible_state");
+  EXPECT_NE(s["fault"].get<std::string>().find("watchdog.max_displacement 2 mm"),
+            std::string::npos)
+      << s["fault"];
+  EXPECT_LT(s["steps"].get<int>(), 250);
+}
+
 // a controller in this process: answers the frames with a script of good and bad targets
 TEST(DirectRun, SafetyGateCountsBadTargetsAndNoticesTheControllerLeaving) {
   const fs::path dir = TempDir("direct_run_safety");

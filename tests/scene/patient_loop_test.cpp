@@ -40,7 +40,7 @@ TEST(PatientLoopTest, FramesAreNumberedAndTimed) {
     const SensorFrame& f = loop.Step();
     EXPECT_EQ(f.stamp.seq, static_cast<uint64_t>(k));
     EXPECT_NEAR(f.stamp.sim_time, k * s.scene.time_step, 1e-12);
-    EXPECT_TRUE(loop.finite());
+    EXPECT_TRUE(loop.healthy()) << loop.fault();
   }
   EXPECT_EQ(loop.steps(), 5);
 }

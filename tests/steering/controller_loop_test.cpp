@@ -80,7 +80,7 @@ TEST(ControllerLoopTest, ClosedLoopInProcessInsertsTowardsTheTarget) {
     delay.Add(ThroughWire(*target));
     ASSERT_TRUE(delay.Ready(k));
     loops.patient.Step(delay.TakeFor(k));
-    ASSERT_TRUE(loops.patient.finite());
+    ASSERT_TRUE(loops.patient.healthy()) << loops.patient.fault();
   }
   const PatientRecord& r = loops.patient.record();
   EXPECT_TRUE(r.skin.punctured);
