@@ -41,7 +41,12 @@ namespace {
 dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
-  const int depth = profile == Qos::kLossless ? c.lossless_depth : 1;
+  // a target reader keeps the targets of a whole step (kTargetReaderDepth): every target that
+  // arrives is checked and counted, and a stranger's flood cannot push the owner's target out
+  // of a history of one (RobotTarget has no key: all writers share one instance)
+  const int depth = profile == Qos::kLossless                 ? c.lossless_depth
+                    : profile == Qos::kTarget && !writer ? kTargetReaderDepth
+                                                              : 1;
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
   // Writers offer transient-local; status and lossless readers request it. A volatile reader
   // may drop a sample that arrives before the writer's first heartbeat even though the two are

@@ -34,13 +34,15 @@ struct TransportConfig {
 /// QoS profiles.
 enum class Qos {
   kStateStream,  ///< SensorFrame: reliable, keep-last 1
-  kTarget,       ///< RobotTarget: reliable, keep-last 1
+  kTarget,       ///< RobotTarget: reliable, keep-last 1 written, kTargetReaderDepth read
   kStatus,       ///< SimStatus: reliable, keep-last 1, transient-local (late joiners get the last)
   kLossless,     ///< a stream where every sample matters (replay, recording): reliable,
                  ///< keep-last lossless_depth on both sides, transient-local, so a sample lost
                  ///< on the wire or written before the reader synchronized can still be resent;
                  ///< a kLossless reader also matches kStateStream writers
 };
+/// History depth of a kTarget reader: the targets of one step, from every writer.
+inline constexpr int kTargetReaderDepth = 32;
 /// Every writer offers transient-local durability (its last sample, or lossless_depth, for a
 /// reader that asks); kStateStream and kTarget readers do not ask for it.
 

@@ -6,6 +6,15 @@ ones, runs each case in the cheapest mode that still reads the input, and fails 
 (a signal), hang (the per-case timeout), exit code other than 0/1/2, or an exit 2 whose message
 names no key, file or option. Prints the counts by outcome.
 
+The message cases: seeded DDS sessions, each a realtime direct_sim on the coarse scenario with
+two injectors (tests/fuzz/target_fuzzer.cpp): one that takes the robot at the start handshake
+and answers every frame with raw RobotTarget samples of a random kind (NaN, infinite, huge,
+zero and long quaternions, unknown modes, joint targets of any length, stale, duplicate and
+future sequence numbers, jumps, far positions, bad stamps, good ones), and a stranger that
+answers every frame 45 mm off. A session fails unless direct_sim completes, every value it
+logged is finite, the robot never moved faster than its speed limit nor left its workspace, and
+the stranger's targets were all rejected as foreign. Every injected sample counts as a case.
+
 usage: fuzz_test.py BIN_DIR SOURCE_DIR [--seed N] [--cases N] [--jobs N] [--timeout S]
 environment: NSIM_FUZZ_SEED, NSIM_FUZZ_CASES override the defaults (seed 1, 1050 cases).
 """
@@ -223,6 +232,88 @@ def run_case(case, timeout, env):
     return case, "exit_%d" % p.returncode, p.returncode, err, took
 
 
+def dds_session(index, seed, direct, fuzzer, scenario_path, work, dds, env, duration=5.0):
+    """One DDS session; returns (failure text or None, owner counts, foreign counts, summary)."""
+    out = os.path.join(work, "dds%d" % index)
+    part = ["--partition", "fuzzdds%d_%d" % (os.getpid(), index)]
+    dds = [x for x in dds] + part
+    procs = []
+    try:
+        procs.append(subprocess.Popen(
+            [direct, "run", "--config", scenario_path, "--mode", "realtime", "--duration",
+             str(duration), "--out", out, "--no-video", "--quiet"] + dds,
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env))
+        procs.append(subprocess.Popen(
+            [fuzzer, "run", "--role", "owner", "--seed", str(seed), "--per-frame", "2",
+             "--duration", str(duration + 25)] + dds,
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env))
+        time.sleep(1.0)  # the owner's handshake first: the stranger arrives mid-run
+        procs.append(subprocess.Popen(
+            [fuzzer, "run", "--role", "foreign", "--seed", str(seed + 1), "--per-frame", "1",
+             "--duration", str(duration + 25)] + dds,
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env))
+        outputs = []
+        for p in procs:
+            try:
+                o, e = p.communicate(timeout=duration + 40)
+            except subprocess.TimeoutExpired:
+                return "hang", None, None, None
+            outputs.append((p.returncode, o.decode(), e.decode()))
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+    (dcode, _, derr), (ocode, oout, oerr), (fcode, fout, ferr) = outputs
+    if dcode < 0 or ocode < 0 or fcode < 0:
+        return "crash (exit %s %s %s): %s %s %s" % (dcode, ocode, fcode, derr, oerr, ferr), \
+            None, None, None
+    if dcode != 0 or ocode != 0 or fcode != 0:
+        return "exit %d/%d/%d: %s %s %s" % (dcode, ocode, fcode, derr[-400:], oerr, ferr), \
+            None, None, None
+    import json
+    owner, foreign = json.loads(oout), json.loads(fout)
+    with open(os.path.join(out, "summary.json")) as f:
+        summary = json.load(f)
+    t = summary["targets"]
+    problems = []
+    if summary["exit"] != "completed":
+        problems.append("exit %s" % summary["exit"])
+    if t["foreign"] < 1 or len(t["foreign_by_writer"]) != 1:
+        problems.append("the stranger's targets were not all rejected as foreign: %s" % t)
+    if t["received"] + t["transport_invalid"] + t["foreign"] > owner["sent"] + foreign["sent"]:
+        problems.append("more targets counted than sent")
+    if t["received"] + t["transport_invalid"] + t["foreign"] < 0.8 * (owner["sent"] +
+                                                                       foreign["sent"]):
+        problems.append("fewer than 80 %% of the targets sent were checked: %s" % t)
+    # the robot: finite, at most its speed per step, inside its workspace
+    text = open(scenario_path).read()
+    speed = float(re.search(r"max_linear_speed: *([0-9.e-]+)", text).group(1))
+    lo = [float(v) for v in re.search(r"workspace_min: *\[([^]]*)\]", text).group(1).split(",")]
+    hi = [float(v) for v in re.search(r"workspace_max: *\[([^]]*)\]", text).group(1).split(",")]
+    h = 0.02
+    with open(os.path.join(out, "timeseries.csv")) as f:
+        header = f.readline().strip().split(",")
+        ix = [header.index("robot_" + a) for a in "xyz"]
+        prev = None
+        for n, line in enumerate(f):
+            row = [float(v) for v in line.strip().split(",")]
+            if not all(v == v and abs(v) != float("inf") for v in row):
+                problems.append("a non-finite value in timeseries.csv row %d" % (n + 1))
+                break
+            p = [row[i] for i in ix]
+            if any(p[k] < lo[k] - 1e-9 or p[k] > hi[k] + 1e-9 for k in range(3)):
+                problems.append("the robot left its workspace at row %d: %s" % (n + 1, p))
+                break
+            if prev is not None:
+                step = sum((p[k] - prev[k]) ** 2 for k in range(3)) ** 0.5
+                if step > speed * h * (1 + 1e-6) + 1e-12:
+                    problems.append("the robot moved %.6f m in one step at row %d" % (step, n + 1))
+                    break
+            prev = p
+    return ("; ".join(problems) or None), owner, foreign, summary
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("bin_dir")
@@ -231,6 +322,8 @@ def main():
     ap.add_argument("--cases", type=int, default=int(os.environ.get("NSIM_FUZZ_CASES", "1050")))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--timeout", type=float, default=20.0)
+    ap.add_argument("--dds-sessions", type=int,
+                    default=int(os.environ.get("NSIM_FUZZ_DDS_SESSIONS", "2")))
     a = ap.parse_args()
     rng = random.Random(a.seed)
     direct = os.path.join(os.path.abspath(a.bin_dir), "direct_sim")
@@ -343,6 +436,31 @@ def main():
     counts = collections.Counter()
     by_family = collections.defaultdict(collections.Counter)
     failures = []
+
+    # the message cases first: realtime sessions want the machine to themselves
+    fuzzer = os.path.join(os.path.abspath(a.bin_dir), "target_fuzzer")
+    dds_kinds, dds_gate = collections.Counter(), collections.Counter()
+    for i in range(a.dds_sessions):
+        failure, owner, foreign, summary = dds_session(i, a.seed * 1000 + 2 * i, direct, fuzzer,
+                                                       good_yaml, work, dds, env)
+        if failure:
+            failures.append((Case("dds:session%d" % i, [direct, fuzzer], []), "dds", None,
+                             failure))
+            counts["dds_failed"] += 1
+            continue
+        dds_kinds.update({"owner_" + k: v for k, v in owner["by_kind"].items()})
+        dds_kinds["foreign_jump"] += foreign["sent"]
+        t = summary["targets"]
+        dds_gate.update({"accepted": t["accepted"], "transport_invalid": t["transport_invalid"],
+                         "foreign": t["foreign"]})
+        dds_gate.update({"rejected_" + k: v for k, v in t["rejected"].items()})
+        dds_gate.update({"clamped_" + k: v for k, v in t["clamped"].items()})
+        n_sent = owner["sent"] + foreign["sent"]
+        counts["message"] += n_sent
+        by_family["message"]["sent"] += n_sent
+        # sent after direct_sim stopped taking them, or dropped by DDS
+        by_family["message"]["unchecked"] += n_sent - t["received"] - t["transport_invalid"] \
+            - t["foreign"]
     slowest = (0.0, None)
     with concurrent.futures.ThreadPoolExecutor(max_workers=a.jobs) as pool:
         for case, outcome, code, err, took in pool.map(lambda c: run_case(c, a.timeout, env),
@@ -364,6 +482,10 @@ def main():
         print("fuzz: %-8s %s" % (family, ", ".join("%s %d" % kv for kv in
                                                    sorted(by_family[family].items()))))
     print("fuzz: outcomes: " + ", ".join("%s %d" % kv for kv in sorted(counts.items())))
+    print("fuzz: dds sessions %d, injected: %s" % (a.dds_sessions, ", ".join(
+        "%s %d" % kv for kv in sorted(dds_kinds.items()))))
+    print("fuzz: dds outcomes at direct_sim: %s" % ", ".join(
+        "%s %d" % kv for kv in sorted(dds_gate.items()) if kv[1]))
     if failures:
         print("fuzz: %d failing cases (kept in %s)" % (len(failures), work))
         return 1

@@ -98,7 +98,7 @@ TEST(DirectRun, BadScenarioExitsWithTwoAndNamesTheKey) {
 TEST(DirectRun, AnImplausibleStateStopsTheRunWithTheReason) {
   const fs::path dir = TempDir("direct_run_watchdog");
   const fs::path scenario = WriteScenario(
-      dir, {{"random_seed: 1", "random_seed: 1\nwatchdog:\n  max_displacement: 0.002"}});
+      dir, {{"max_displacement: 0.1 ", "max_displacement: 0.002 "}});
   ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
                         (dir / "out").string(), "--no-controller", "--duration", "5", "--mode",
                         "lockstep", "--quiet"},
