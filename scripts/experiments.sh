@@ -5,7 +5,7 @@
 # prediction on and off, and optionally bevel on/off and 6-DoF Cartesian vs 7-DoF iiwa.
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
-#                          [--latency-steps N] [--gain K] [--bevel] [--dof7] [--no-build]
+#                          [--latency-steps N[,N...]] [--gain K] [--bevel] [--dof7] [--no-build]
 #                          [--transport in_process|dds] [--jobs N] [--timeout S]
 #                          [--hosts H1,H2,... | --slurm] [--dry-run]
 #   scripts/experiments.sh --collect DIR
@@ -20,6 +20,12 @@
 # The default scenario is configs/scenarios/liver_breathing.yaml (the 2656-node patient liver;
 # liver_test_coarse.yaml is the 685-node one, faster), the default duration 20 s (the
 # steady-state window, the last 20 %, is one breathing period).
+# --latency-steps 1,3,5,10 (a list) is a latency sweep: one batch per latency, in
+# DIR/latency_<N>/ (each as above), then DIR/sweep.csv (one row per latency and setting: runs,
+# mean, std and worst final error, mean amplitude, failed runs), DIR/sweep.txt (the same as a
+# table, with the paired prediction on - off lines of every latency; also printed) and
+# DIR/sweep.png (final error and amplitude against latency, one line per setting: prediction on
+# and off, 6-DoF and, with --dof7, 7-DoF). `--collect DIR` on a sweep folder rebuilds them.
 # --gain K sets the control gains k (eq. 3.9) of every setting: the scenarios' 0.1 suits a
 # 1-step latency; with --latency-steps 5 use --gain 0.5 (README, Limitations).
 #
@@ -92,7 +98,8 @@ while [ $# -gt 0 ]; do
 done
 [[ "$runs" =~ ^[1-9][0-9]*$ ]] || die "--runs must be a positive integer, got '$runs'"
 [[ "$seed" =~ ^[0-9]+$ ]] || die "--seed must be an integer >= 0, got '$seed'"
-[[ "$latency" =~ ^[0-9]+$ ]] || die "--latency-steps must be an integer >= 0, got '$latency'"
+[[ "$latency" =~ ^[0-9]+(,[0-9]+)*$ ]] \
+  || die "--latency-steps must be an integer >= 0 or a comma-separated list of them, got '$latency'"
 if ! [[ "$duration" =~ ^([0-9]+\.?[0-9]*|\.[0-9]+)$ ]] || ! awk -v d="$duration" 'BEGIN { exit !(d > 0) }'; then
   die "--duration must be a number of seconds > 0, got '$duration'"
 fi
@@ -179,9 +186,54 @@ collect_batch() {  # collect_batch DIR
   [ "$plot_ok" = 1 ]
 }
 
+# ---- a latency sweep: its table and plot, from the batches DIR/latency_<N>/ ----
+collect_sweep() {  # collect_sweep DIR
+  local dir="$1" d lat
+  echo "latency_steps,setting,runs,final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,amplitude_std_mm,failed" > "$dir/sweep.csv"
+  : > "$dir/sweep_pairs.txt"
+  for d in $(ls -d "$dir"/latency_* | sort -t_ -k2 -n); do
+    lat="${d##*latency_}"
+    [ -f "$d/runs.csv" ] || { echo "experiments: $d has no runs.csv (collect it first)" >&2; return 1; }
+    awk -F, -v L="$lat" 'NR > 1 { n[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 }
+        if ($6 == "") { bad[$1]++; next } k[$1]++; e[$1] += $6; e2[$1] += $6 * $6; a[$1] += $7; a2[$1] += $7 * $7
+        if (!($1 in w) || $6 > w[$1]) w[$1] = $6 }
+      function sd(s, s2, c) { return c > 1 ? sqrt((s2 - s * s / c) / (c - 1)) : 0 }
+      END { for (i = 1; i <= o; i++) { s = order[i]; c = k[s]
+              printf "%s,%s,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n", L, s, n[s], c ? e[s] / c : 0, sd(e[s], e2[s], c),
+                     c ? w[s] : 0, c ? a[s] / c : 0, sd(a[s], a2[s], c), bad[s] + 0 } }' "$d/runs.csv" >> "$dir/sweep.csv"
+    if grep -q "^prediction on - off" "$d/table.txt" 2>/dev/null; then
+      { echo "latency $lat steps:"; sed -n '/^prediction on - off/,$p' "$d/table.txt" | tail -n +2; } >> "$dir/sweep_pairs.txt"
+    fi
+  done
+  {
+    awk -F, 'NR == 1 { next } { printf "%7s  %-16s %4d  %7.3f +- %5.3f  %7.3f  %7.3f +- %5.3f  %6d\n", $1, $2, $3, $4, $5, $6, $7, $8, $9 }' \
+      "$dir/sweep.csv" | sed '1i latency  setting          runs  final error (mm)  worst (mm)  amplitude (mm)  failed'
+    echo
+    echo "final error = mean true tip-to-target distance over the last 20 % of each run, amplitude = its"
+    echo "peak-to-peak; mean +- std over runs; worst = the largest final error; latency in lockstep steps"
+    echo
+    echo "prediction on - off, paired by run (|t| > 2.08: significant at 5 % for 22 runs):"
+    cat "$dir/sweep_pairs.txt"
+  } > "$dir/sweep.txt"
+  rm -f "$dir/sweep_pairs.txt"
+  echo; cat "$dir/sweep.txt"
+  if [ -x /usr/bin/python3 ] && /usr/bin/python3 -c "import matplotlib" 2>/dev/null; then
+    /usr/bin/python3 "$root/scripts/plot_results.py" sweep --sweep "$dir/sweep.csv" --out "$dir/sweep.png"
+  else
+    echo "experiments: the sweep plot could not be made: /usr/bin/python3 with matplotlib is missing" >&2
+    return 1
+  fi
+  echo "experiments: sweep results in $dir"
+}
+
 if [ -n "$collect" ]; then
   [ -d "$collect" ] || die "--collect: no such folder: $collect"
-  collect_batch "$collect"
+  if compgen -G "$collect/latency_*" > /dev/null && [ ! -f "$collect/jobs.txt" ]; then
+    for d in "$collect"/latency_*; do collect_batch "$d" > /dev/null || true; done
+    collect_sweep "$collect"
+  else
+    collect_batch "$collect"
+  fi
   exit
 fi
 
@@ -193,6 +245,27 @@ bin="${NSIM_BUILD_DIR:-$root/build}/bin"
 bin="$(realpath -m "$bin")"
 out="${NSIM_RESULTS_DIR:-$root/results/experiments_$(date +%Y%m%d_%H%M%S)}"
 mkdir -p "$out"; out="$(realpath "$out")"
+
+# ---- a latency sweep: this script once per latency, then the sweep's table and plot ----
+if [[ "$latency" == *,* ]]; then
+  [ -z "$replay" ] || die "--replay takes no latency list"
+  [ "$slurm" = 0 ] && [ "$dry_run" = 0 ] || die "a latency sweep runs its batches here: no --slurm or --dry-run (run one batch per latency instead)"
+  sub=(--runs "$runs" --seed "$seed" --scenario "$scenario" --duration "$duration" --transport "$transport"
+       --timeout "$timeout" --no-build)
+  [ -z "$gain" ] || sub+=(--gain "$gain")
+  [ "$bevel" = 0 ] || sub+=(--bevel)
+  [ "$dof7" = 0 ] || sub+=(--dof7)
+  [ -z "$jobs" ] || sub+=(--jobs "$jobs")
+  [ -z "$hosts" ] || sub+=(--hosts "$hosts")
+  IFS=',' read -ra lats <<< "$latency"
+  echo "experiments: latency sweep over ${lats[*]} steps; results in $out"
+  for l in "${lats[@]}"; do
+    NSIM_RESULTS_DIR="$out/latency_$l" "$0" "${sub[@]}" --latency-steps "$l" \
+      || echo "experiments: the batch at $l steps ended with an error (see $out/latency_$l)" >&2
+  done
+  collect_sweep "$out"
+  exit
+fi
 
 pids=()
 cleanup() {

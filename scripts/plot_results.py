@@ -12,6 +12,11 @@ Run with Debian's python3 and matplotlib (python3-matplotlib):
   /usr/bin/python3 scripts/plot_results.py experiments --runs RUNS.csv --out DIR
       RUNS.csv (scripts/experiments.sh: setting,run,final_error_mm,final_error_amplitude_mm,...)
       -> DIR/final_error.png (final error and amplitude per setting, every run a dot)
+  /usr/bin/python3 scripts/plot_results.py sweep --sweep SWEEP.csv --out OUT.png
+      SWEEP.csv (scripts/experiments.sh --latency-steps 1,3,5,10: latency_steps,setting,runs,
+      final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,...)
+      -> OUT.png: final error (mean +- std, worst dotted) and amplitude against latency, one
+      line per setting
   /usr/bin/python3 scripts/plot_results.py predict-eval DIR
       DIR/marker<m>.csv + DIR/predict_eval.json (inverse_sim predict-eval, which runs this
       itself) -> DIR/marker<m>.png: the first principal component of the measurement delayed
@@ -171,6 +176,45 @@ def plot_experiments(runs_csv, out_dir):
     print("plot_results: wrote " + out)
 
 
+def plot_sweep(sweep_csv, out):
+    if not os.path.isfile(sweep_csv):
+        fail(sweep_csv + ": missing")
+    lines = {}
+    with open(sweep_csv) as f:
+        for row in csv.DictReader(f):
+            try:
+                values = [float(row[k]) for k in ("latency_steps", "final_error_mean_mm",
+                                                  "final_error_std_mm", "final_error_worst_mm",
+                                                  "amplitude_mean_mm", "amplitude_std_mm")]
+            except (KeyError, TypeError, ValueError):
+                fail(sweep_csv + ": expected numbers in every row")
+            if int(row.get("runs", 0) or 0) > int(row.get("failed", 0) or 0):
+                lines.setdefault(row["setting"], []).append(values)
+    if not lines:
+        fail(sweep_csv + ": no setting with numbers")
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
+    for i, (name, rows) in enumerate(sorted(lines.items())):
+        rows.sort()
+        lat = [r[0] for r in rows]
+        color = "C%d" % i
+        left.errorbar(lat, [r[1] for r in rows], yerr=[r[2] for r in rows], marker="o",
+                      capsize=3, color=color, label=name)
+        left.plot(lat, [r[3] for r in rows], ":", marker="x", color=color)
+        right.errorbar(lat, [r[4] for r in rows], yerr=[r[5] for r in rows], marker="o",
+                       capsize=3, color=color, label=name)
+    left.set_ylabel("final error (mm): mean +- std, worst dotted")
+    right.set_ylabel("amplitude (mm): mean +- std")
+    for ax in (left, right):
+        ax.set_xlabel("latency (lockstep steps of 20 ms)")
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Closed loop against latency")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    print("plot_results: wrote " + out)
+
+
 def read_columns(path, keys):
     """The float columns `keys` of a CSV file."""
     if not os.path.isfile(path):
@@ -249,6 +293,8 @@ def main(argv):
         plot_compare(argv[3], argv[4:])
     elif cmd == "experiments" and len(argv) == 6 and argv[2] == "--runs" and argv[4] == "--out":
         plot_experiments(argv[3], argv[5])
+    elif cmd == "sweep" and len(argv) == 6 and argv[2] == "--sweep" and argv[4] == "--out":
+        plot_sweep(argv[3], argv[5])
     elif cmd == "predict-eval" and len(argv) == 3:
         plot_predict_eval(argv[2])
     else:
