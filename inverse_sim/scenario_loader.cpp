@@ -16,7 +16,8 @@ namespace {
 
 void ReadFem(const YamlReader& y, FemConfig* c) {
   y.CheckKeys({"young_modulus", "poisson_ratio", "density", "rayleigh_mass", "rayleigh_stiffness",
-               "time_step", "linear_solver", "cg_relative_tolerance"});
+               "time_step", "linear_solver", "cg_relative_tolerance", "background_refactor"});
+  y.Read("background_refactor", &c->background_refactor);
   y.Read("young_modulus", &c->young_modulus);
   y.Read("poisson_ratio", &c->poisson_ratio);
   y.Read("density", &c->density);
@@ -82,7 +83,9 @@ void CheckControllerBounds(const InverseScenario& s) {
 void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint"});
+                 "tip_constraint", "constraint_compliance"});
+  const int compliance = inv.ReadChoice("constraint_compliance", {"rest", "last_factor"});
+  if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
   std::filesystem::path mesh = inv.Child("mesh").AsString();
   if (mesh.is_relative()) mesh = std::filesystem::path(path).parent_path() / mesh;
   s->mesh_path = mesh.lexically_normal().string();
@@ -185,7 +188,7 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   const YamlReader root = YamlReader::LoadFile(path);
   // every top-level section of a scenario file (both processes'), so a typo is caught here too
   root.CheckKeys({"random_seed", "shared", "patient", "breathing", "needle", "robot", "insertion",
-                  "safety", "run", "view", "dds", "inverse", "controller", "prediction"});
+                  "safety", "watchdog", "run", "view", "dds", "inverse", "controller", "prediction"});
   InverseScenario s;
   s.source = path;
   s.shared = ReadSharedScenario(root);

@@ -29,7 +29,8 @@ ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(ou
   csv_ = std::make_unique<LineFile>(out_dir_ + "/inverse.csv", LineFile::Mode::kInPlace);
   csv_->WriteLine(
       "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
-      "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms");
+      "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms,model_target_x,model_target_y,"
+      "model_target_z");
 }
 
 void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
@@ -39,7 +40,8 @@ void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
   row << r.answers_seq << ',' << r.t << ',' << r.phase << ',' << r.path_index << ',' << r.valid
       << ',' << r.e_p_norm << ',' << r.horizon << ',' << r.predicted << ',' << r.model_tip.x()
       << ',' << r.model_tip.y() << ',' << r.model_tip.z() << ',' << 1e3 * r.timings.simulation
-      << ',' << 1e3 * r.timings.jacobian << ',' << 1e3 * r.timings.total;
+      << ',' << 1e3 * r.timings.jacobian << ',' << 1e3 * r.timings.total << ','
+      << r.model_target.x() << ',' << r.model_target.y() << ',' << r.model_target.z();
   csv_->WriteLine(row.str());
 }
 

@@ -162,6 +162,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   r.valid = out.valid;
   r.e_p_norm = out.e.size() >= 3 ? out.e.head<3>().norm() : 0.0;
   r.model_tip = out.p_WTip;
+  r.model_target = out.p_WFinal;
   r.timings = out.timings;
   if (!out.valid) {
     ++counts_.invalid_outputs;

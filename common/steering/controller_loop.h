@@ -65,6 +65,9 @@ struct ControllerRecord {
   double horizon = 0.0;   ///< prediction horizon (s); NaN before the horizon is known
   bool predicted = false; ///< registered to predicted markers
   Eigen::Vector3d model_tip = Eigen::Vector3d::Zero();
+  /// the target as the model places it (its final path target, m): its distance to the true
+  /// target is the registration's share of the final error
+  Eigen::Vector3d model_target = Eigen::Vector3d::Zero();
   SteeringTimings timings;
 };
 

@@ -50,6 +50,11 @@ void InverseModelConfig::Validate() const {
   needle.Validate("inverse.needle");
   CheckPositive(puncture_force, "inverse.puncture_force", " (N)");
   CheckPositive(point_spacing, "inverse.point_spacing", " (m)");
+  // a compliance built on the factor lags a background refresh (fem_config.h): unstable
+  if (liver.background_refactor && !rest_compliance)
+    throw InputError(
+        "inverse.liver.background_refactor: true needs inverse.constraint_compliance: rest (a "
+        "compliance built on the liver's factor would lag the refreshed factor)");
 }
 
 void SteeringPathConfig::Validate() const {

@@ -52,6 +52,14 @@ struct InverseModelConfig {
   double point_spacing = 0.013;
   /// Lateral tip constraint in the liver (common/needle, needle_tissue.h).
   bool tip_constraint = true;
+  /// The compliance of the registration and needle constraints, YAML
+  /// inverse.constraint_compliance: true = rest (FemInverse::kRestFactor: h^2 A_0^-1,
+  /// constant, so the columns of the markers and of every laid needle point are solved once and
+  /// the model's factor may be refreshed in the background), false = last_factor
+  /// (FemInverse::kReferenceFactor: the liver's last factorization; with linear_solver direct,
+  /// this step's exact system, every column solved again each step). See
+  /// common/fem/fem_solver.h.
+  bool rest_compliance = false;
 
   /// Throws InputError "inverse.<key> must be ..., got ..." for the first invalid field.
   void Validate() const;

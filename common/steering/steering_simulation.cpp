@@ -48,7 +48,9 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   model_ = std::make_unique<FemModel>(mesh_, fem);
   solver_ = std::make_unique<FemSolver>(*model_);
   state_ = std::make_unique<FemState>(*model_);
-  body_ = std::make_unique<FemConstraintBody>(*solver_, *state_);
+  body_ = std::make_unique<FemConstraintBody>(
+      *solver_, *state_,
+      config.rest_compliance ? FemInverse::kRestFactor : FemInverse::kReferenceFactor);
 
   // the needle-liver coupling, frictionless (see the file comment of steering_simulation.h)
   NeedleCouplingConfig coupling;
