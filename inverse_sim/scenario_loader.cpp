@@ -103,7 +103,10 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   RejectKeysMovedToShared(ctl, "controller");
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
-                 "liver_entry_objective", "compensate_in_flight"});
+                 "liver_entry_objective", "compensate_in_flight", "null_space_gain",
+                 "joint_limit_margin"});
+  ctl.Read("null_space_gain", &s->loop.control.null_space_gain);
+  ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
   std::string dof;
   if (ctl.Read("dof", &dof)) s->loop.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
   const YamlReader p = ctl.Child("path");

@@ -81,6 +81,16 @@ void SteeringControlConfig::Validate() const {
   Nested([&] { gains.Validate(); }, "control.", "controller.");
   Nested([&] { law.Validate(); }, "control.", "controller.");
   Nested([&] { iiwa.Validate(); }, "iiwa.", "controller.iiwa.");
+  if (!(null_space_gain >= 0.0 && null_space_gain <= 1.0))
+    throw InputError(Str("controller.null_space_gain must be in [0, 1] (1/step), got ",
+                         null_space_gain));
+  if (!(joint_limit_margin >= 0.0))
+    throw InputError(
+        Str("controller.joint_limit_margin must be >= 0 (rad), got ", joint_limit_margin));
+  for (int j = 0; j < 7; ++j)
+    if (!(2 * joint_limit_margin < iiwa.position_upper[j] - iiwa.position_lower[j]))
+      throw InputError(Str("controller.joint_limit_margin ", joint_limit_margin,
+                           " rad leaves no range for joint ", j + 1));
 }
 
 }  // namespace nsim

@@ -106,6 +106,14 @@ struct SteeringControlConfig {
   bool compensate_in_flight = true;
   /// The iiwa (base pose, limits) for kJoint7.
   Iiwa14Config iiwa;
+  /// kJoint7: the redundancy's use. The objectives (at most 7 rows, usually 5-6 independent)
+  /// leave the iiwa a null space; each step adds -null_space_gain (q - q_mid), projected into
+  /// the null space of the Jacobian (I - J_r^+ J), so the joints drift toward mid-range without
+  /// moving the objectives to first order (Liegeois' joint-limit avoidance). 0: the minimum-norm
+  /// step only. (1/step, in [0, 1])
+  double null_space_gain = 0.02;
+  /// kJoint7: the commanded joints stay this far inside the iiwa's position limits (rad), >= 0.
+  double joint_limit_margin = 0.05;
 
   /// Throws InputError "controller.<key> ...".
   void Validate() const;

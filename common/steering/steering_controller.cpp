@@ -1,6 +1,8 @@
 #include "common/steering/steering_controller.h"
 
 #include <chrono>
+#include <Eigen/SVD>
+#include <cmath>
 
 #include "common/control/control_law.h"
 #include "common/control/finite_difference_jacobian.h"
@@ -178,7 +180,12 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     }
     const JointControlOutput law = CalcJointTarget(base, out.J, out.e_expected, k, control_.law);
     out.valid = law.valid && status.all_finite;
-    out.q_target = out.valid ? iiwa_.ClampToLimits(law.q_target) : input.q;
+    Vector7d q_target = law.q_target;
+    if (out.valid && control_.null_space_gain > 0) {
+      out.null_space_step = CalcNullSpaceStep(out.J, input.q);
+      q_target += out.null_space_step;
+    }
+    out.q_target = out.valid ? ClampWithMargin(q_target) : input.q;
     out.step_limited = law.step_limited;
     out.X_WE_target = CalcFlangePose(out.q_target);
   }
@@ -188,6 +195,32 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   out.timings.control = Seconds(t3, t4);
   out.timings.total = Seconds(t0, t4);
   return out;
+}
+
+Vector7d SteeringController::CalcNullSpaceStep(const Eigen::MatrixXd& J,
+                                               const Vector7d& q) const {
+  if (!J.allFinite() || J.cols() != kIiwaNumJoints || J.rows() == 0) return Vector7d::Zero();
+  // the projector on the exact null space of J's significant part: N = I - V_r V_r^T over the
+  // right singular vectors whose singular values exceed kRankTolerance sigma_max (the
+  // regularized inverse's J_r^+ J is no projector: its weakly seen directions leak)
+  constexpr double kRankTolerance = 1e-3;
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeFullV);
+  const Eigen::VectorXd& sigma = svd.singularValues();
+  Eigen::Matrix<double, 7, 7> N = Eigen::Matrix<double, 7, 7>::Identity();
+  for (int i = 0; i < sigma.size(); ++i)
+    if (sigma[i] > kRankTolerance * sigma[0])
+      N -= svd.matrixV().col(i) * svd.matrixV().col(i).transpose();
+  Vector7d step = N * (-control_.null_space_gain * (q - iiwa_.CalcMidRange()));
+  const double largest = step.cwiseAbs().maxCoeff();
+  if (!std::isfinite(largest)) return Vector7d::Zero();
+  if (largest > control_.law.max_joint_step) step *= control_.law.max_joint_step / largest;
+  return step;
+}
+
+Vector7d SteeringController::ClampWithMargin(const Vector7d& q) const {
+  const Iiwa14Config& c = iiwa_.config();
+  const Vector7d m = Vector7d::Constant(control_.joint_limit_margin);
+  return q.cwiseMax(c.position_lower + m).cwiseMin(c.position_upper - m);
 }
 
 }  // namespace nsim

@@ -71,6 +71,8 @@ struct SteeringOutput {
   Eigen::Vector3d p_WTarget = Eigen::Vector3d::Zero();  ///< model's current path target (m)
   Eigen::Vector3d p_WFinal = Eigen::Vector3d::Zero();   ///< model's final target (m)
   int num_perturbations = 0;
+  /// kJoint7: the joint-limit avoidance step added in the Jacobian's null space (rad)
+  Vector7d null_space_step = Vector7d::Zero();
   SteeringStepReport model;
   SteeringTimings timings;
 };
@@ -99,6 +101,11 @@ class SteeringController {
   const Iiwa14Model& iiwa() const { return iiwa_; }
 
  private:
+  /// -null_space_gain (q - q_mid) projected into the null space of J (I - J_r^+ J), with the
+  /// regularized inverse of the law, capped at the law's max_joint_step.
+  Vector7d CalcNullSpaceStep(const Eigen::MatrixXd& J, const Vector7d& q) const;
+  /// q clamped into the iiwa's limits shrunk by control.joint_limit_margin.
+  Vector7d ClampWithMargin(const Vector7d& q) const;
   /// The objective vector of `phase` from one evaluation of the frozen step.
   Eigen::VectorXd CalcObjectives(const SteeringEvaluation& eval, InsertionPhase phase) const;
 

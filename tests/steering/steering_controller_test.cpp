@@ -6,6 +6,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
+#include "common/core/error.h"
+
 #include "common/control/finite_difference_jacobian.h"
 #include "common/robot/iiwa14_ik.h"
 #include "tests/steering/steering_test_scene.h"
@@ -64,10 +69,15 @@ struct LoopResult {
   double model_error = 0.0;  // the controller's own estimate (m)
   int steps = 0;
   bool reached_end = false;
+  double mid_range_distance = 0.0;  // |q - q_mid| / sqrt(7) at the end (rad), kJoint7
+  double null_leak = 0.0;  // max over steps of |J n| / (|J| |n|), n the null-space step
+  double null_step_sum = 0.0;  // sum of |n| over the steps (rad)
+  double min_limit_distance = 1e9;  // closest any commanded joint came to its limit (rad)
 };
 
 // closed loop: controller (E factor `model_factor`) drives a plant model (factor 1)
-LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_steps) {
+LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_steps,
+                              double null_space_gain = SteeringControlConfig().null_space_gain) {
   const TetMesh mesh = LoadLiver("liver_700");
   const SteeringPathConfig path = MakePathConfig();
   const InverseModelConfig plant_config = MakeModelConfig(1.0);
@@ -76,6 +86,7 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
   control.dof = dof;
   control.law.max_translation_step = 0.003;
   control.law.max_joint_step = 0.01;
+  control.null_space_gain = null_space_gain;
   const Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(plant_config.needle, path);
 
   Vector7d q = Vector7d::Zero();
@@ -100,6 +111,18 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
     EXPECT_TRUE(out.valid) << "step " << i;
     q = out.q_target;
     X_WE = out.X_WE_target;
+    if (dof == SteeringDof::kJoint7) {
+      const double n = out.null_space_step.norm();
+      result.null_step_sum += n;
+      if (n > 0)
+        result.null_leak = std::max(result.null_leak, (out.J * out.null_space_step).norm() /
+                                                          (out.J.norm() * n));
+      const Iiwa14Config& lim = controller.iiwa().config();
+      result.min_limit_distance = std::min(
+          {result.min_limit_distance, (q - lim.position_lower).minCoeff(),
+           (lim.position_upper - q).minCoeff()});
+      result.mid_range_distance = (q - controller.iiwa().CalcMidRange()).norm() / std::sqrt(7.0);
+    }
     plant.Step(plant_config.markers_W, X_WE);
     result.steps = i + 1;
     result.reached_end = out.reached_end;
@@ -120,12 +143,39 @@ TEST(SteeringControllerTest, StaticLiverCartesianReachesTarget) {
               1e3 * r.final_error, 1e3 * r.model_error, r.steps);
 }
 
-TEST(SteeringControllerTest, StaticLiverJointSpaceReachesTarget) {
-  const LoopResult r = RunStaticInsertion(SteeringDof::kJoint7, 1.1, 120);
-  EXPECT_TRUE(r.reached_end);
-  EXPECT_LT(r.final_error, kFinalTolerance) << "model error " << r.model_error;
-  std::printf("joint7: final error %.4f mm (model %.4f mm) after %d steps\n",
-              1e3 * r.final_error, 1e3 * r.model_error, r.steps);
+// the iiwa in joint space reaches the target; its redundancy: the joint-limit step lies in the
+// Jacobian's null space (the objectives see it at most to the rank tolerance, 1e-3 of the
+// largest singular value), it brings the joints toward mid-range (against the same insertion
+// without it), and the commanded joints keep the margin
+TEST(SteeringControllerTest, StaticLiverJointSpaceReachesTargetAndUsesTheNullSpace) {
+  const LoopResult with = RunStaticInsertion(SteeringDof::kJoint7, 1.1, 120);
+  const LoopResult without = RunStaticInsertion(SteeringDof::kJoint7, 1.1, 120, 0.0);
+  EXPECT_GT(with.null_step_sum, 1e-3);
+  EXPECT_EQ(without.null_step_sum, 0.0);
+  EXPECT_LT(with.null_leak, 1e-3);
+  EXPECT_LT(with.mid_range_distance, 0.9 * without.mid_range_distance)
+      << with.mid_range_distance << " vs " << without.mid_range_distance;
+  EXPECT_GE(with.min_limit_distance, SteeringControlConfig().joint_limit_margin - 1e-12);
+  EXPECT_TRUE(with.reached_end);
+  EXPECT_LT(with.final_error, kFinalTolerance);
+  std::printf("joint7: final error %.4f mm (model %.4f mm) after %d steps; |q - q_mid| %.4f rad "
+              "(without the null-space step %.4f), leak %.2e\n",
+              1e3 * with.final_error, 1e3 * with.model_error, with.steps,
+              with.mid_range_distance, without.mid_range_distance, with.null_leak);
+}
+
+TEST(SteeringControllerTest, BadRedundancySettingsAreRefusedWithTheirKey) {
+  SteeringControlConfig c;
+  c.null_space_gain = 1.5;
+  EXPECT_THROW(
+      try { c.Validate(); } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("controller.null_space_gain"), std::string::npos);
+        throw;
+      },
+      InputError);
+  c = SteeringControlConfig();
+  c.joint_limit_margin = 2.5;  // more than half of joint 2's range (+-2.09 rad)
+  EXPECT_THROW(c.Validate(), InputError);
 }
 
 }  // namespace
