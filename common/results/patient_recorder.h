@@ -30,6 +30,7 @@ struct PatientRunInfo {
   bool realtime = false;       ///< realtime (wall-clock paced) or lockstep
   int latency_steps = 0;       ///< lockstep latency d (steps)
   std::string transport = "dds";  ///< "dds" or "in_process"
+  std::string dds_identity;  ///< the DDS Security identity (--secure); empty: not secured
   std::string exit = "completed";  ///< completed, diverged, interrupted, controller_lost, ...
   double wall_time = 0.0;      ///< (s)
   std::vector<double> latency_ms;  ///< per received target: frame sent -> target received (ms)
