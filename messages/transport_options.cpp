@@ -13,9 +13,9 @@ void AddTransportOptions(CommandLine& cli, const std::string& identity) {
       .Option("lease", "S", "liveliness lease of this process's writers (s)", "2")
       .Option("deadline", "S", "max period between samples of a stream (s), 0 = none", "2")
       .Option("secure", "DIR",
-              "DDS Security: authenticate with, and encrypt for, the credentials in DIR "
-              "(scripts/make_credentials.sh); talks only to processes with credentials of the "
-              "same CA")
+              "DDS Security with the credentials in DIR (scripts/make_credentials.sh): "
+              "authenticated, access-controlled and encrypted; talks only to processes with "
+              "credentials of the same CA")
       .Option("identity", "NAME",
               "with --secure: whose credentials (DIR/NAME.cert.pem, DIR/NAME.key.pem, "
               "DIR/NAME.permissions.p7s)",
