@@ -205,7 +205,7 @@ int RunReplay(int argc, char** argv) {
       .Option("ros2-wait", "N",
               "with --ros2: wait for N ROS 2 subscribers of /nsim/markers before streaming", "0")
       .Flag("quiet", "no progress lines");
-  transport::AddTransportOptions(cli);
+  transport::AddTransportOptions(cli, "direct_sim");
   transport::AddRos2Options(cli);
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   ReplayOptions options;

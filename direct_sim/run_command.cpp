@@ -55,7 +55,7 @@ void DeclareOptions(CommandLine& cli) {
             "2: the reason)")
       .Flag("quiet", "no progress lines");
   AddControllerOptions(cli);
-  transport::AddTransportOptions(cli);
+  transport::AddTransportOptions(cli, "direct_sim");
   transport::AddRos2Options(cli);
 }
 
@@ -144,6 +144,8 @@ int RunDirect(int argc, char** argv) {
   tc.Validate();
   const std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
   if (ros2 && in_process) throw InputError("--ros2 needs the DDS path: not with --in-process");
+  if (tc.security.enabled() && in_process)
+    throw InputError("--secure needs the DDS path: not with --in-process");
   if (cli.GetFlag("check")) {
     if (in_process) LoadInverseScenario(cli.GetString("config"));
     if (!cli.GetFlag("quiet")) std::printf("run: %s is valid\n", cli.GetString("config").c_str());
@@ -155,6 +157,7 @@ int RunDirect(int argc, char** argv) {
   PatientLoop loop(scenario.LoopConfig(controller), scenario.liver_mesh, scenario.skin_mesh);
   PatientOutputs outputs(out_dir, scenario.run, scenario.view, cli.GetFlag("quiet"));
   PatientRunInfo info = MakeInfo(scenario, in_process);
+  if (tc.security.enabled()) info.dds_identity = tc.security.identity;
   const int code = in_process ? RunInProcess(cli, scenario, loop, outputs, &info)
                               : RunPatientOverDds(loop, outputs, scenario.run, tc, ros2,
                                                   scenario.scenario_hash, cli.GetFlag("quiet"),

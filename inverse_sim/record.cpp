@@ -228,7 +228,7 @@ int RunRecord(int argc, char** argv) {
       .Option("end-grace", "S", "after the end-of-stream status, wait S seconds for late frames",
               "1")
       .Flag("quiet", "no progress lines");
-  transport::AddTransportOptions(cli);
+  transport::AddTransportOptions(cli, "inverse_sim");
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   RecordOptions options;
   options.out_path = cli.GetString("out");

@@ -60,7 +60,7 @@ int RunInverseSim(int argc, char** argv) {
             "only read and check the scenario, its mesh and the options, then exit (0: valid, "
             "2: the reason)");
   AddControllerOptions(cli);
-  transport::AddTransportOptions(cli);
+  transport::AddTransportOptions(cli, "inverse_sim");
   transport::AddRos2Options(cli);
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   InverseScenario scenario = LoadInverseScenario(cli.GetString("config"));
@@ -106,6 +106,7 @@ int RunInverseSim(int argc, char** argv) {
   info.lockstep = scenario.lockstep;
   info.domain = options.transport.domain_id;
   info.partition = options.transport.partition;
+  if (options.transport.security.enabled()) info.dds_identity = options.transport.security.identity;
   int code = 0;
   if (ros2_io) {
     info.transport = "ros2";

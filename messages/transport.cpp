@@ -11,6 +11,7 @@
 #include "common/core/error.h"
 #include "messages/convert.h"
 #include "messages/dds_util.h"
+#include "messages/security.h"
 
 namespace nsim::transport {
 
@@ -83,13 +84,30 @@ void TransportConfig::Validate() const {
   CheckAtMost(deadline_s, 3600.0, "dds.deadline", "s");
   if (lossless_depth < 1)
     throw InputError(Str("dds.lossless_depth must be >= 1, got ", lossless_depth));
+  // Cyclone's access-control plugin reads domain ids up to 230 in governance and permissions
+  if (security.enabled() && domain_id > 230)
+    throw InputError(Str("dds.domain_id must be in 0..230 with DDS Security, got ", domain_id));
+  security.Validate();
 }
 
 Participant::Participant(const TransportConfig& config) : config_(config) {
   config_.Validate();
   domain_ = CreateDomain(config_.domain_id, config_.config_file);
-  participant_ =
-      Checked(dds_create_participant(config_.domain_id, nullptr, nullptr), "create participant");
+  if (config_.security.enabled()) {
+    dds_qos_t* qos = dds_create_qos();
+    SetSecurityProperties(config_.security, qos);
+    try {
+      participant_ = CreateSecureParticipant(config_.domain_id, config_.security, qos);
+    } catch (...) {
+      dds_delete_qos(qos);
+      if (domain_ > 0) dds_delete(domain_);
+      throw;
+    }
+    dds_delete_qos(qos);
+  } else {
+    participant_ =
+        Checked(dds_create_participant(config_.domain_id, nullptr, nullptr), "create participant");
+  }
   dds_qos_t* qos = dds_create_qos();
   dds_qset_partition1(qos, config_.partition.c_str());
   publisher_ = dds_create_publisher(participant_, qos, nullptr);
@@ -107,10 +125,11 @@ Participant::~Participant() {
 int32_t Participant::TopicFor(const void* descriptor, const char* name) {
   for (const auto& [d, t] : topics_)
     if (d == descriptor) return t;
-  const dds_entity_t topic =
-      Checked(dds_create_topic(participant_, static_cast<const dds_topic_descriptor_t*>(descriptor),
-                               name, nullptr, nullptr),
-              "create topic");
+  const dds_entity_t topic = dds_create_topic(
+      participant_, static_cast<const dds_topic_descriptor_t*>(descriptor), name, nullptr, nullptr);
+  if (topic == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
+    throw InputError(PermissionDenied(config_.security, "using", name));
+  Checked(topic, "create topic");
   topics_.emplace_back(descriptor, topic);
   return topic;
 }
@@ -143,6 +162,8 @@ Writer<Sample>::Writer(Participant& participant, Qos qos) : scratch_(std::make_u
   dds_qos_t* q = MakeQos(participant.config(), qos, /*writer=*/true);
   writer_ = dds_create_writer(participant.publisher(), topic, q, nullptr);
   dds_delete_qos(q);
+  if (writer_ == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
+    throw InputError(PermissionDenied(participant.config().security, "publishing", Traits::kTopic));
   Checked(writer_, "create writer");
 }
 
@@ -187,6 +208,9 @@ Reader<Sample>::Reader(Participant& participant, Qos qos) {
   dds_qos_t* q = MakeQos(participant.config(), qos, /*writer=*/false);
   reader_ = dds_create_reader(participant.subscriber(), topic, q, nullptr);
   dds_delete_qos(q);
+  if (reader_ == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY)
+    throw InputError(
+        PermissionDenied(participant.config().security, "subscribing to", Traits::kTopic));
   Checked(reader_, "create reader");
   Checked(dds_set_status_mask(reader_, DDS_DATA_AVAILABLE_STATUS | DDS_LIVELINESS_CHANGED_STATUS |
                                            DDS_REQUESTED_DEADLINE_MISSED_STATUS |

@@ -14,6 +14,28 @@
 
 namespace nsim::transport {
 
+/// DDS Security (OMG DDS Security 1.1 with Cyclone's builtin plugins: PKI-DH authentication,
+/// access control by signed governance and permissions documents, AES-GCM encryption): the
+/// credentials of one identity in a folder written by scripts/make_credentials.sh. A secured
+/// participant only talks to participants authenticated by the same CA, and only on the topics
+/// its and their permissions allow; an unsecured one does not see it at all.
+struct SecurityConfig {
+  std::string dir;       ///< the credentials folder; empty: no security
+  std::string identity;  ///< whose credentials: dir/<identity>.{cert,key}.pem and
+                         ///< dir/<identity>.permissions.p7s; at most 64 of [A-Za-z0-9_-]
+
+  bool enabled() const { return !dir.empty(); }
+  std::string ca() const;           ///< dir/ca.pem: the identity CA and permissions CA
+  std::string governance() const;   ///< dir/governance.p7s (signed by the CA)
+  std::string certificate() const;  ///< dir/<identity>.cert.pem (signed by the CA)
+  std::string private_key() const;  ///< dir/<identity>.key.pem
+  std::string permissions() const;  ///< dir/<identity>.permissions.p7s (signed by the CA)
+
+  /// Throws InputError naming the file when a credential is missing, unreadable or not what it
+  /// should be (a PEM certificate or key, an S/MIME-signed document); nothing when disabled.
+  void Validate() const;
+};
+
 /// How a process joins the DDS data space.
 struct TransportConfig {
   int domain_id = 0;               ///< DDS domain id, 0..232
@@ -26,6 +48,7 @@ struct TransportConfig {
   double liveliness_lease_s = 2.0;
   double deadline_s = 2.0;    ///< max period between samples of a stream (s); 0 = no deadline
   int lossless_depth = 4096;  ///< history depth of the kLossless profile (samples)
+  SecurityConfig security;    ///< DDS Security credentials; disabled by default
 
   /// Throws InputError naming the field when a value is out of range or the file is missing.
   void Validate() const;
@@ -50,7 +73,8 @@ inline constexpr int kTargetReaderDepth = 32;
 class Participant {
  public:
   /// Creates the domain from config.config_file (if given) and the participant. Throws
-  /// InputError for a bad config, std::runtime_error if DDS refuses.
+  /// InputError for a bad config or credentials that DDS Security refuses (with Cyclone's
+  /// reason and the file it concerns), std::runtime_error if DDS refuses otherwise.
   explicit Participant(const TransportConfig& config);
   ~Participant();
   Participant(const Participant&) = delete;
@@ -74,6 +98,8 @@ class Participant {
 template <typename Sample>
 class Writer {
  public:
+  /// Throws InputError when the participant's DDS Security permissions do not allow
+  /// publishing the topic, std::runtime_error if DDS refuses otherwise.
   Writer(Participant& participant, Qos qos);
   ~Writer();
   Writer(const Writer&) = delete;
@@ -110,6 +136,8 @@ struct ReaderHealth {
 template <typename Sample>
 class Reader {
  public:
+  /// Throws InputError when the participant's DDS Security permissions do not allow
+  /// subscribing to the topic, std::runtime_error if DDS refuses otherwise.
   Reader(Participant& participant, Qos qos);
   ~Reader();
   Reader(const Reader&) = delete;

@@ -2,6 +2,7 @@
 // The command-line options every networked subcommand shares (DESIGN.md "What a user runs").
 
 #include <optional>
+#include <string>
 
 #include "common/core/cli.h"
 #include "messages/ros2.h"
@@ -9,18 +10,22 @@
 
 namespace nsim::transport {
 
-/// Adds --dds-config, --domain, --partition, --lease and --deadline to `cli`. The default DDS
-/// configuration is the repository's configs/dds/local.xml (one machine, loopback).
-void AddTransportOptions(CommandLine& cli);
+/// Adds --dds-config, --domain, --partition, --lease, --deadline, --secure and --identity to
+/// `cli`. The default DDS configuration is the repository's configs/dds/local.xml (one machine,
+/// loopback). `identity` is the default of --identity: the program's own credentials
+/// ("direct_sim", "inverse_sim").
+void AddTransportOptions(CommandLine& cli, const std::string& identity);
 
-/// Reads the options added by AddTransportOptions; the result is validated.
+/// Reads the options added by AddTransportOptions; the result is validated (with --secure, the
+/// credentials exist and are what they should be). --identity without --secure is an error.
 TransportConfig TransportFromCli(const CommandLine& cli);
 
 /// Adds --ros2 (mirror the process's streams to ROS 2 topics, messages/ros2.h).
 void AddRos2Options(CommandLine& cli);
 
-/// The ROS 2 configuration when --ros2 was given (or `force`), else nothing: the domain of
-/// --domain if given, else ROS_DOMAIN_ID, else 0; the DDS configuration file of `transport`.
+/// The ROS 2 configuration when --ros2 was given (or `force`, for --ros2-io), else nothing: the
+/// domain of --domain if given, else ROS_DOMAIN_ID, else 0; the DDS configuration file of
+/// `transport`. InputError with --secure: the ROS 2 topics are not secured.
 std::optional<Ros2Config> Ros2FromCli(const CommandLine& cli, const TransportConfig& transport,
                                       bool force = false);
 

@@ -7,10 +7,15 @@
 # neither process is starved (in realtime mode on 2 cores direct_sim reaches about 24 of its
 # 50 steps/s and some runs stall short of the target; see README "Limitations").
 #
-#   scripts/run.sh [--in-process] [--duration S] [scenario.yaml] [-- extra direct_sim options]
+#   scripts/run.sh [--in-process] [--secure [DIR]] [--duration S] [scenario.yaml]
+#                  [-- extra direct_sim options]
 #   --in-process: both loops in one process (direct_sim run --in-process), lockstep, no DDS:
 #                 the same results folder and, to the last digit, the same numbers as the
 #                 two-process lockstep run
+#   --secure [DIR]: DDS Security: each process authenticates with its credentials in DIR and
+#                 the topics are encrypted (README "DDS Security"); without DIR,
+#                 $NSIM_CREDENTIALS_DIR or results/credentials, made by
+#                 scripts/make_credentials.sh when missing
 #   --duration S: simulated time (default the scenario's run.duration)
 #   NSIM_PREDICTION=off scripts/run.sh     (register to the measured markers)
 #   NSIM_MODE=realtime scripts/run.sh      (wall-clock pacing; NSIM_MODE=lockstep is the default,
@@ -27,14 +32,24 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 scenario="$root/configs/scenarios/liver_breathing.yaml"
 in_process=0
 duration="${NSIM_DURATION:-}"
+secure=""        # the credentials folder with --secure
+secure_default=0  # --secure without DIR: the default folder, made when missing
 while [ $# -gt 0 ]; do
   case "$1" in
     --in-process) in_process=1; shift ;;
+    --secure=*) secure="${1#--secure=}"; shift ;;
+    --secure)
+      # DIR is the next argument unless that is an option or a scenario file
+      if [ $# -ge 2 ] && [[ "$2" != -* ]] && { [ -d "$2" ] || [[ "$2" != *.yaml && "$2" != *.yml ]]; }; then
+        secure="$2"; shift 2
+      else
+        secure="${NSIM_CREDENTIALS_DIR:-$root/results/credentials}"; secure_default=1; shift
+      fi ;;
     --duration)
       [ $# -ge 2 ] || { echo "run: --duration needs a value (s)" >&2; exit 2; }
       duration="$2"; shift 2 ;;
     --duration=*) duration="${1#--duration=}"; shift ;;
-    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     --) shift; break ;;
     -*) echo "run: unknown option '$1' (see --help)" >&2; exit 2 ;;
     *) scenario="$(realpath "$1")"; shift ;;
@@ -46,7 +61,19 @@ if [ -n "$duration" ] && ! [[ "$duration" =~ ^[0-9]*\.?[0-9]+$ ]]; then
   echo "run: --duration must be a positive number of seconds, got '$duration'" >&2; exit 2
 fi
 
+if [ -n "$secure" ]; then
+  [ "$in_process" = 0 ] || { echo "run: --secure needs the two processes over DDS: not with --in-process" >&2; exit 2; }
+fi
+
 "$root/scripts/setup.sh"
+if [ -n "$secure" ]; then
+  if [ "$secure_default" = 1 ] && [ ! -e "$secure/ca.pem" ]; then
+    echo "run: no credentials in $secure: making them (scripts/make_credentials.sh)"
+    "$root/scripts/make_credentials.sh" --out "$secure"
+  fi
+  [ -f "$secure/ca.pem" ] || { echo "run: no credentials in '$secure' (scripts/make_credentials.sh --out '$secure' makes them)" >&2; exit 2; }
+  secure="$(realpath "$secure")"
+fi
 echo "run: building (scripts/build.sh) ..."
 "$root/scripts/build.sh" >/dev/null
 bin="${NSIM_BUILD_DIR:-$root/build}/bin"
@@ -59,6 +86,7 @@ prediction="${NSIM_PREDICTION:-on}"
 # both processes are alive; the robot still holds after safety.hold_timeout without targets
 dds=(--dds-config "$root/configs/dds/local.xml" --domain "${NSIM_DOMAIN:-0}" --partition "run$$"
      --lease 2)
+[ -n "$secure" ] && dds+=(--secure "$secure")
 NSIM_MODE="${NSIM_MODE:-lockstep}"
 mode_args=(--mode "$NSIM_MODE")
 direct_args=("${mode_args[@]}")
@@ -99,7 +127,7 @@ if [ "$in_process" = 1 ]; then
   pids=()
   inverse_code=$direct_code
 else
-  echo "run: closed loop, scenario $scenario, prediction $prediction${NSIM_MODE:+, mode $NSIM_MODE}"
+  echo "run: closed loop, scenario $scenario, prediction $prediction${NSIM_MODE:+, mode $NSIM_MODE}${secure:+, DDS Security with $secure}"
   echo "run: results in $out"
   "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --timeout 600 --start-timeout 60 \
     "${mode_args[@]}" "${controller_args[@]}" "${dds[@]}" > "$out/inverse.log" 2>&1 &

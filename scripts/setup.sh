@@ -8,6 +8,7 @@ PACKAGES=(
   libeigen3-dev
   libsuitesparse-dev libopenblas-dev
   cyclonedds-dev cyclonedds-tools
+  openssl libssl-dev  # DDS Security: scripts/make_credentials.sh, the checks of --secure
   libopencv-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -4,20 +4,29 @@
 # (configs/dds/two_hosts.xml: explicit peers, no multicast). Needs root (ip netns, nft).
 #
 #   scripts/two_hosts.sh [scenario.yaml] [--loss PCT] [--latency-steps N] [--duration S]
-#                        [--prediction on|off] [--no-build]
+#                        [--prediction on|off] [--secure [DIR]] [--no-build]
 #
 # --loss PCT drops PCT % of the packets arriving in each namespace (nftables input rule
 # "numgen random mod 100 < PCT drop"); DDS's reliable protocol resends them. Latency is simulated
 # in the application: lockstep with --latency-steps N (default 1). Writes
 # results/two_hosts_<date>/ (or $NSIM_RESULTS_DIR): direct/, inverse/, the logs and summary.json
 # (merged, like scripts/run.sh). Namespaces, veth pair and rules are removed on exit, and both
-# processes are killed by PID.
+# processes are killed by PID. --secure [DIR]: DDS Security, as in scripts/run.sh (without DIR,
+# $NSIM_CREDENTIALS_DIR or results/credentials, made when missing).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 scenario="$root/configs/scenarios/liver_test_coarse.yaml"
-loss=0; latency=1; duration=""; prediction=on; build=1
+loss=0; latency=1; duration=""; prediction=on; build=1; secure=""; secure_default=0
 while [ $# -gt 0 ]; do
   case "$1" in
+    --secure=*) secure="${1#--secure=}"; shift ;;
+    --secure)
+      # DIR is the next argument unless that is an option or a scenario file
+      if [ $# -ge 2 ] && [[ "$2" != -* ]] && { [ -d "$2" ] || [[ "$2" != *.yaml && "$2" != *.yml ]]; }; then
+        secure="$2"; shift 2
+      else
+        secure="${NSIM_CREDENTIALS_DIR:-$root/results/credentials}"; secure_default=1; shift
+      fi ;;
     --loss) loss="$2"; shift 2 ;;
     --latency-steps) latency="$2"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
@@ -36,6 +45,14 @@ if [ "$(id -u)" -ne 0 ]; then echo "two_hosts: needs root (ip netns, nft)" >&2; 
 if [ "$build" = 1 ]; then
   "$root/scripts/setup.sh"
   "$root/scripts/build.sh" >/dev/null
+fi
+if [ -n "$secure" ]; then
+  if [ "$secure_default" = 1 ] && [ ! -e "$secure/ca.pem" ]; then
+    echo "two_hosts: no credentials in $secure: making them (scripts/make_credentials.sh)"
+    "$root/scripts/make_credentials.sh" --out "$secure"
+  fi
+  [ -f "$secure/ca.pem" ] || { echo "two_hosts: no credentials in '$secure' (scripts/make_credentials.sh --out '$secure' makes them)" >&2; exit 2; }
+  secure="$(realpath "$secure")"
 fi
 bin="${NSIM_BUILD_DIR:-$root/build}/bin"
 out="${NSIM_RESULTS_DIR:-$root/results/two_hosts_$(date +%Y%m%d_%H%M%S)}"
@@ -62,10 +79,11 @@ if [ "$loss" -gt 0 ]; then
     ip netns exec "$ns" nft add rule inet nsim input iifname "${tag}*" numgen random mod 100 '<' "$loss" counter drop
   done
 fi
-echo "two_hosts: direct_sim on 10.77.0.1 ($ns1), inverse_sim on 10.77.0.2 ($ns2), loss $loss %, lockstep latency $latency steps"
+echo "two_hosts: direct_sim on 10.77.0.1 ($ns1), inverse_sim on 10.77.0.2 ($ns2), loss $loss %, lockstep latency $latency steps${secure:+, DDS Security with $secure}"
 echo "two_hosts: results in $out"
 
 common=(--dds-config "$root/configs/dds/two_hosts.xml" --domain "${NSIM_DOMAIN:-0}" --partition "$tag" --lease 3)
+[ -n "$secure" ] && common+=(--secure "$secure")
 ip netns exec "$ns2" "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --mode lockstep \
   --prediction "$prediction" --timeout 900 --start-timeout 60 \
   "${common[@]}" > "$out/inverse.log" 2>&1 &

@@ -106,7 +106,10 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
 void ControllerRecorder::WriteSummary(const ControllerLoop& loop,
                                       const ControllerRunInfo& info) const {
   csv_->Commit();  // inverse.csv flushed and closed, then the summary that describes it
-  WriteFileAtomically(out_dir_ + "/summary.json", Summary(loop, info).dump(2) + "\n");
+  json summary = Summary(loop, info);
+  // only in secured runs: the summary of any other run stays as it was
+  if (!info.dds_identity.empty()) summary["dds_security"] = {{"identity", info.dds_identity}};
+  WriteFileAtomically(out_dir_ + "/summary.json", summary.dump(2) + "\n");
 }
 
 }  // namespace nsim

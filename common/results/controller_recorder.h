@@ -24,6 +24,7 @@ struct ControllerRunInfo {
   TimingStat frame_to_target;   ///< wall time from the frame's sending to the target's (s)
   int domain = 0;
   std::string partition;
+  std::string dds_identity;  ///< the DDS Security identity (--secure); empty: not secured
 };
 
 class ControllerRecorder {

@@ -97,6 +97,8 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   if (!info.fault.empty()) j["fault"] = info.fault;  // why the watchdog stopped the run
   j["mode"] = info.realtime ? "realtime" : "lockstep";
   j["transport"] = info.transport;
+  // only in secured runs: the summary of any other run stays as it was
+  if (!info.dds_identity.empty()) j["dds_security"] = {{"identity", info.dds_identity}};
   j["controller"] = c.controller;
   j["steps"] = loop.steps();
   j["time_step_s"] = sc.time_step;

@@ -30,6 +30,7 @@ struct PatientRunInfo {
   bool realtime = false;       ///< realtime (wall-clock paced) or lockstep
   int latency_steps = 0;       ///< lockstep latency d (steps)
   std::string transport = "dds";  ///< "dds" or "in_process"
+  std::string dds_identity;  ///< the DDS Security identity (--secure); empty: not secured
   /// completed, diverged (a solver failed), implausible_state (the physics watchdog stopped the
   /// run: `fault` says why), interrupted, controller_lost, ...
   std::string exit = "completed";

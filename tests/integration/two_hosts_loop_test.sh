@@ -2,7 +2,8 @@
 # The closed loop on two "machines" (scripts/two_hosts.sh: a network namespace per process,
 # joined by a veth pair) without and with 10 % of the packets dropped on arrival: DDS resends
 # what is lost and lockstep keeps the run independent of timing, so both runs end with the same
-# final error to the last digit, without a lockstep timeout or a missing frame.
+# final error to the last digit, without a lockstep timeout or a missing frame; so does a third
+# run with 10 % loss and DDS Security (--secure, credentials made by scripts/make_credentials.sh).
 # Exit 77 (skipped) where network namespaces or nftables are not available.
 set -u
 build="$1"; src="$2"
@@ -16,24 +17,33 @@ fi
 netns_pair_down
 command -v nft > /dev/null || { echo "SKIPPED: no nft"; exit 77; }
 
-for loss in 0 10; do
+"$src/scripts/make_credentials.sh" --out "$dir/credentials" --days 1 > /dev/null ||
+  { echo "FAIL: make_credentials.sh"; exit 1; }
+# "10s": 10 % loss, secured
+for loss in 0 10 10s; do
+  secure=()
+  [ "$loss" = 10s ] && secure=(--secure "$dir/credentials")
   NSIM_BUILD_DIR="$build" NSIM_RESULTS_DIR="$dir/loss$loss" NSIM_DOMAIN=43 timeout -s INT 150 \
-    "$src/scripts/two_hosts.sh" --no-build --duration 2 --prediction off --loss "$loss" \
-    > "$dir/loss$loss.log" 2>&1
+    "$src/scripts/two_hosts.sh" --no-build --duration 2 --prediction off --loss "${loss%s}" \
+    "${secure[@]}" > "$dir/loss$loss.log" 2>&1
   code=$?
   tail -n 4 "$dir/loss$loss.log"
   [ "$code" -eq 0 ] || { cat "$dir/loss$loss.log"; echo "FAIL: two_hosts.sh --loss $loss exited $code"; exit 1; }
 done
 field() { jq -r "$1" "$dir/loss$2/summary.json"; }
 fail=0
-for loss in 0 10; do
+for loss in 0 10 10s; do
   [ "$(field .direct_exit $loss)" = completed ] || { echo "FAIL: loss $loss: direct_sim did not complete"; fail=1; }
   [ "$(field .lockstep_timeouts $loss)" = 0 ] || { echo "FAIL: loss $loss: lockstep timeouts $(field .lockstep_timeouts $loss)"; fail=1; }
   [ "$(field .inverse_frames_missing $loss)" = 0 ] || { echo "FAIL: loss $loss: frames missing $(field .inverse_frames_missing $loss)"; fail=1; }
 done
 dropped=$(grep -o 'packets [0-9]*' "$dir/loss10.log" | awk '{s += $2} END {print s + 0}')
 [ "$dropped" -gt 0 ] || { echo "FAIL: the loss rule dropped no packet"; fail=1; }
-e0=$(field .final_error_mm 0); e10=$(field .final_error_mm 10)
+e0=$(field .final_error_mm 0); e10=$(field .final_error_mm 10); e10s=$(field .final_error_mm 10s)
 [ "$e0" = "$e10" ] || { echo "FAIL: final error $e0 mm without loss, $e10 mm with 10 % loss"; fail=1; }
+[ "$e0" = "$e10s" ] || { echo "FAIL: final error $e0 mm without loss, $e10s mm secured with 10 % loss"; fail=1; }
+[ "$(field .direct.dds_security.identity 10s)" = direct_sim ] &&
+  [ "$(field .inverse.dds_security.identity 10s)" = inverse_sim ] ||
+  { echo "FAIL: the secured run's summaries do not say DDS Security"; fail=1; }
 [ "$fail" -eq 0 ] || exit 1
-echo "PASS: final error $e0 mm with and without 10 % loss ($dropped packets dropped)"
+echo "PASS: final error $e0 mm with and without 10 % loss, secured too ($dropped packets dropped)"
