@@ -171,7 +171,7 @@ int Main(int argc, char** argv) {
       .Integer("seed", "N", "random seed", "1")
       .Number("duration", "S", "stop after this wall time (s)", "10")
       .Integer("per-frame", "N", "samples per frame received", "3");
-  transport::AddTransportOptions(cli);
+  transport::AddTransportOptions(cli, "inverse_sim");  // it plays the controller
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   const transport::TransportConfig tc = transport::TransportFromCli(cli);
   const bool owner = cli.GetString("role") == "owner";
