@@ -8,12 +8,16 @@
 // The DDS pump of inverse_sim and the in-process closed loop drive the same class.
 //
 // A controller started (or restarted) in the middle of an insertion re-synchronizes its model
-// at the first frame it answers: the model is built at the measured flange pose and caught up
-// (SteeringController::CatchUp: the needle retracted along its axis and driven in again with
-// the markers at their measured positions), and the first control step advances the path index
-// past the targets the tip has passed. The marker predictor, the horizon and the measured
-// latency start fresh: the predictor is ready after its buffer has filled again, and until
-// then the model registers to the measured markers.
+// from the frames. Given the frames from the start of the run (inverse_sim over DDS in
+// lockstep: a late reader of the lossless frame stream gets its history, up to
+// dds.lossless_depth frames) it answers them all in order and its model, predictor and path
+// index replay the insertion exactly. Otherwise (realtime: only the newest frame; a longer
+// run) the first frame it answers finds the needle in: the model is built at the measured
+// flange pose and caught up (SteeringController::CatchUp: driven in along the registered path,
+// then moved to the measured pose, the markers at their measured positions), the first control
+// step advances the path index past the targets the tip has passed, and the marker predictor,
+// the horizon and the measured latency start fresh (the predictor is ready once its buffer
+// has filled again; until then the model registers to the measured markers).
 
 #include <cstdint>
 #include <deque>

@@ -199,8 +199,8 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
   // 2. the path as the registered liver carries it: its start and direction
   const std::vector<Eigen::Vector3d> path = CalcPathPositions();
   const double spacing_0 = (path_.size() > 1 ? (path[1] - path[0]).norm() : 0.0);
-  const Eigen::Vector3d d = path.size() > 1 ? Eigen::Vector3d((path.back() - path.front()).normalized())
-                                            : direction_;
+  const Eigen::Vector3d d =
+      path.size() > 1 ? Eigen::Vector3d((path.back() - path.front()).normalized()) : direction_;
   Eigen::Vector3d start = path.front() - spacing_0 * d;
   const TetLocator deformed(mesh_, state_->x);
   for (int i = 0; i < 10 && deformed.Locate(start); ++i) start -= config_.point_spacing * d;
@@ -227,8 +227,9 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
                                     1e-9)));
   for (int i = 1; i <= m; ++i) {
     const double s = static_cast<double>(i) / m;
-    step(p_WM, i == m ? X_WF
-                      : flange(tip_path + s * (tip - tip_path), q0.slerp(s, q1).toRotationMatrix()));
+    step(p_WM, i == m
+                   ? X_WF
+                   : flange(tip_path + s * (tip - tip_path), q0.slerp(s, q1).toRotationMatrix()));
   }
   for (int i = 0; i < config.settle_steps; ++i) step(p_WM, X_WF);
 
@@ -238,8 +239,7 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
   report.aligned_angle = angle;
   report.liver_phase = coupling_state_.tissues[0].phase;
   report.liver_points = static_cast<int>(coupling_state_.tissues[0].points.size());
-  report.wall_time =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  report.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return report;
 }
 

@@ -83,14 +83,14 @@ struct CatchUpConfig {
 
 /// What CatchUp did.
 struct CatchUpReport {
-  bool done = false;      ///< the needle was driven in (false: it was not in, nothing done)
-  double depth = 0.0;     ///< how far the tip was driven in along the path (m)
-  double aligned = 0.0;   ///< how far the tip then moved to its measured position (m)
+  bool done = false;           ///< the needle was driven in (false: it was not in, nothing done)
+  double depth = 0.0;          ///< how far the tip was driven in along the path (m)
+  double aligned = 0.0;        ///< how far the tip then moved to its measured position (m)
   double aligned_angle = 0.0;  ///< and how far the needle turned (rad)
-  int steps = 0;          ///< model steps taken
+  int steps = 0;               ///< model steps taken
   TissuePhase liver_phase = TissuePhase::kOutside;  ///< after the catch-up
-  int liver_points = 0;   ///< the liver's entry, trajectory and exit points after it
-  double wall_time = 0.0; ///< (s)
+  int liver_points = 0;    ///< the liver's entry, trajectory and exit points after it
+  double wall_time = 0.0;  ///< (s)
 };
 
 /// What one Step did.
