@@ -41,7 +41,13 @@ namespace {
 dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
-  const int depth = profile == Qos::kLossless ? c.lossless_depth : 1;
+  // a status reader keeps the last few: every process writes on the (keyless) status topic,
+  // and with several controllers (one taking over, or a standby) one's status would otherwise
+  // replace another's before it is read (a controller missed direct_sim's "finished")
+  constexpr int kStatusReaderDepth = 32;
+  const int depth = profile == Qos::kLossless                ? c.lossless_depth
+                    : profile == Qos::kStatus && !writer ? kStatusReaderDepth
+                                                             : 1;
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
   // Writers offer transient-local; status and lossless readers request it. A volatile reader
   // may drop a sample that arrives before the writer's first heartbeat even though the two are

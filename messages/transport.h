@@ -35,7 +35,8 @@ struct TransportConfig {
 enum class Qos {
   kStateStream,  ///< SensorFrame: reliable, keep-last 1
   kTarget,       ///< RobotTarget: reliable, keep-last 1
-  kStatus,       ///< SimStatus: reliable, keep-last 1, transient-local (late joiners get the last)
+  kStatus,       ///< SimStatus: reliable, keep-last 1 (readers: 32), transient-local (late
+                 ///< joiners get the last of each writer)
   kLossless,     ///< a stream where every sample matters (replay, recording): reliable,
                  ///< keep-last lossless_depth on both sides, transient-local, so a sample lost
                  ///< on the wire or written before the reader synchronized can still be resent;
