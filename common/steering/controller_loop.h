@@ -10,8 +10,8 @@
 // A controller started (or restarted) in the middle of an insertion re-synchronizes its model
 // from the frames. Given the frames from the start of the run (inverse_sim over DDS in
 // lockstep: a late reader of the lossless frame stream gets its history, up to
-// dds.lossless_depth frames) it answers them all in order and its model, predictor and path
-// index replay the insertion exactly. Otherwise (realtime: only the newest frame; a longer
+// TransportConfig::lossless_depth = 4096 frames, 82 s at 50 Hz) it answers them all in order
+// and its model, predictor and path index replay the insertion exactly. Otherwise (realtime: only the newest frame; a longer
 // run) the first frame it answers finds the needle in: the model is built at the measured
 // flange pose and caught up (SteeringController::CatchUp: driven in along the registered path,
 // then moved to the measured pose, the markers at their measured positions), the first control
