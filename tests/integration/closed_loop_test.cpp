@@ -1,7 +1,8 @@
 // The closed loop as two processes over DDS (configs/dds/local.xml), lockstep, on the coarse
 // scenario configs/scenarios/liver_test_coarse.yaml (liver_700 on both sides): the needle
 // reaches the target and the run is reproducible; a controller killed with SIGKILL mid-insertion
-// makes direct_sim hold the robot and report it; a prediction-on run scores every marker's
+// makes direct_sim hold the robot and report it (a process that never says "running" cannot
+// take it over); a prediction-on run scores every marker's
 // prediction better than not predicting (nRMS < 100 %). Every process is bounded in time and
 // killed by PID.
 #include <gtest/gtest.h>
@@ -208,11 +209,20 @@ TEST(ClosedLoop, AStalledControllerTakesOverAgainAndTheRunIsUnchanged) {
       << "the stall changed the run";
 }
 
+// A killed controller that no new one replaces: the robot holds to the end. A process that
+// answers every frame but never says "running" (an injector, 45 mm off) cannot take it over.
 TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
   const fs::path dir = TempDir("closed_loop_kill");
   // a killed controller does not come back: the loss is final after 2 s
   const fs::path scenario =
       WriteScenario(dir, {{"takeover_timeout: 30.0", "takeover_timeout: 2.0"}});
+  transport::TransportConfig tc;
+  tc.domain_id = kDomain;
+  tc.partition = "kill_" + std::to_string(getpid());  // the loop's partition
+  tc.config_file = kDdsConfig;
+  transport::Participant injector(tc);
+  transport::Reader<SensorFrame> frames(injector, transport::Qos::kLossless);
+  transport::Writer<RobotTarget> targets(injector, transport::Qos::kLossless);
   Loop loop(dir, "kill", scenario, {"--duration", "5"}, {"--prediction", "off", "--lease", "0.5"});
   // kill the controller once the needle is in the skin (phase >= 1) and moving
   const fs::path csv = loop.out / "direct/timeseries.csv";
@@ -221,6 +231,22 @@ TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
   });
   ASSERT_TRUE(in_skin) << loop.direct->Output();
   loop.inverse->Kill(SIGKILL);
+  std::vector<SensorFrame> got;
+  uint64_t injected = 0;
+  const double until = MonotonicSeconds() + 60.0;
+  while (!loop.direct->Exited() && MonotonicSeconds() < until) {
+    frames.Wait(0.05);
+    got.clear();
+    frames.Take(got);
+    for (const SensorFrame& f : got) {
+      RobotTarget t;
+      t.stamp.seq = injected++;
+      t.answers_seq = f.stamp.seq;
+      t.X_WE = f.X_WE;
+      t.X_WE.translation() += Eigen::Vector3d(0.045, 0.0, 0.0);
+      targets.Write(t);
+    }
+  }
   const int code = loop.direct->Wait(60.0);
   const std::string output = loop.direct->Output();
   EXPECT_EQ(code, 1) << output;
@@ -234,6 +260,8 @@ TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
   EXPECT_GT(lost_at, 0.0);
   EXPECT_LT(lost_at, 4.5);
   EXPECT_EQ(d["steps"], 250);  // it keeps simulating the patient to the end
+  EXPECT_EQ(d["controller_takeovers"], 0);
+  EXPECT_GT(d["targets"]["foreign"].get<uint64_t>(), 50u) << d["targets"].dump();
   // the robot holds: after braking (<= 0.1 s at the robot's acceleration limit) it stays put
   const std::vector<std::vector<double>> rows = ReadRows(csv);
   ASSERT_FALSE(rows.empty());
