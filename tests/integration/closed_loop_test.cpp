@@ -2,9 +2,8 @@
 // scenario configs/scenarios/liver_test_coarse.yaml (liver_700 on both sides): the needle
 // reaches the target and the run is reproducible; a controller killed with SIGKILL mid-insertion
 // makes direct_sim hold the robot and report it (a process that never says "running" cannot
-// take it over); a prediction-on run scores every marker's
-// prediction better than not predicting (nRMS < 100 %). Every process is bounded in time and
-// killed by PID.
+// take it over); a prediction-on run scores every marker's prediction better than not
+// predicting (nRMS < 100 %). Every process is bounded in time and killed by PID.
 #include <gtest/gtest.h>
 
 #include <signal.h>
