@@ -45,11 +45,12 @@ class PatientPump {
           run.mode == RunMode::kLockstep ? transport::Qos::kLossless : transport::Qos::kTarget);
       status_in_ =
           std::make_unique<transport::Reader<SimStatus>>(participant_, transport::Qos::kStatus);
-      watch_ = std::make_unique<ControllerWatch>(*targets_, loop_, run_, info_,
-                                                 [this](const std::string& message) {
-                                                   message_ = message;
-                                                   PublishStatus(RunState::kRunning, message_);
-                                                 });
+      watch_ = std::make_unique<ControllerWatch>(
+          *targets_, *status_in_, loop_, run.mode == RunMode::kLockstep ? &delay_ : nullptr, run_,
+          scenario_hash, info_, [this](const std::string& message) {
+            message_ = message;
+            PublishStatus(RunState::kRunning, message_);
+          });
     }
     if (ros2) {
       transport::Ros2MirrorTopics topics;
@@ -92,7 +93,7 @@ class PatientPump {
         SleepUntilMonotonic(start + (k + 1) * loop_.config().scene.time_step);
     }
     if (info_.exit == "completed") PublishFrame();  // the final state
-    if (info_.exit == "completed" && watch_ && (watch_->given_up() || watch_->lost()))
+    if (info_.exit == "completed" && watch_ && (watch_->given_up() || watch_->waiting()))
       info_.exit = "controller_lost";
     info_.wall_time = MonotonicSeconds() - start;
     const bool ok = info_.exit == "completed";
@@ -115,7 +116,7 @@ class PatientPump {
   int Handshake() {
     const double end = MonotonicSeconds() + run_.start_timeout;
     bool matched = frames_.WaitForReaders(1, run_.start_timeout);
-    while (matched && targets_->health().writers_matched == 0) {
+    while (matched && watch_->Poll().writers_matched == 0) {
       if (MonotonicSeconds() > end || InterruptRequested())
         matched = false;
       else
@@ -129,8 +130,9 @@ class PatientPump {
                    "config? use --no-controller to run the scene alone)\n";
       return 1;
     }
+    uint64_t owner = 0;
     const std::optional<SimStatus> peer =
-        transport::WaitForPeerRunning(*status_in_, "direct_sim", kPeerSettle_s, watch_->owner());
+        transport::WaitForPeerRunning(*status_in_, "direct_sim", kPeerSettle_s, &owner);
     if (!peer) {
       if (!quiet_)
         std::printf("run: the controller sent no running status; starting after %.1f s\n",
@@ -148,6 +150,7 @@ class PatientPump {
                 << "): give both processes the same shared: section\n";
       return 2;
     }
+    watch_->Bind(owner);
     return 0;
   }
 
@@ -190,8 +193,10 @@ class PatientPump {
     targets_->Take(received_, &writers_);
     for (size_t i = 0; i < received_.size(); ++i) {
       const RobotTarget& r = received_[i];
-      if (!watch_->FromOwner(writers_[i])) continue;
-      if (r.answers_seq < sent_at_.size() && sent_at_[r.answers_seq] > 0)
+      // a new owner's answers while it catches up (the frames it missed) are no loop latency
+      const bool catching_up = watch_->taking_over();
+      if (!watch_->FromOwner(writers_[i], r)) continue;
+      if (!catching_up && r.answers_seq < sent_at_.size() && sent_at_[r.answers_seq] > 0)
         info_.latency_ms.push_back(1e3 * (MonotonicSeconds() - sent_at_[r.answers_seq]));
       if (run_.mode == RunMode::kLockstep) {
         delay_.Add(r);
@@ -210,21 +215,25 @@ class PatientPump {
       TakeTargets();
       if (run_.mode == RunMode::kLockstep) {
         const double end = MonotonicSeconds() + run_.lockstep_timeout;
-        // a lost controller may come back (a stall): the insertion waits for it, up to
-        // run.takeover_timeout from the loss, before the loss is final
+        // a lost controller may come back (a stall), or a new one take over and catch up: the
+        // insertion waits for it, up to run.takeover_timeout, before the loss is final
         while (!delay_.Ready(k) && !watch_->given_up() && !InterruptRequested() &&
-               (MonotonicSeconds() < end || watch_->lost())) {
+               (MonotonicSeconds() < end || watch_->waiting())) {
           targets_->Wait(0.05);
           TakeTargets();
           watch_->Check();
-          if (!watch_->lost() && MonotonicSeconds() >= end) break;
+          if (!watch_->waiting() && MonotonicSeconds() >= end) break;
         }
-        if (!delay_.Ready(k)) ++info_.lockstep_timeouts;
+        if (delay_.Ready(k))
+          watch_->Served();
+        else
+          ++info_.lockstep_timeouts;
         target = delay_.TakeFor(k);
       }
     }
     try {
       loop_.Step(target);
+      if (watch_) watch_->NoteApplied(loop_.frame().applied_seq);
     } catch (const SolverError& e) {
       std::cerr << "direct_sim run: runtime failure at t = " << loop_.time() << " s: " << e.what()
                 << "\n";

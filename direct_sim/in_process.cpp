@@ -24,9 +24,11 @@ std::optional<RobotTarget> Answer(ControllerLoop& controller, ControllerRecorder
 
 }  // namespace
 
-int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, ControllerLoop& controller,
+int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs,
+                           std::unique_ptr<ControllerLoop>& controller,
                            ControllerRecorder& controller_recorder, const RunConfig& run,
-                           PatientRunInfo* pinfo, ControllerRunInfo* cinfo) {
+                           PatientRunInfo* pinfo, ControllerRunInfo* cinfo,
+                           const ControllerRestart& restart) {
   const int64_t steps = static_cast<int64_t>(std::llround(run.duration / patient.config().scene.time_step));
   LockstepTargets delay(run.latency_steps);
   const double start = MonotonicSeconds();
@@ -43,8 +45,14 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, Contro
         code = 1;
         break;
       }
+      if (k == restart.at_step && restart.make) {
+        controller = restart.make();
+        delay = LockstepTargets(run.latency_steps);
+        patient.DropCommand();
+        ++pinfo->takeovers;
+      }
       outputs.OnFrame(patient);
-      if (std::optional<RobotTarget> target = Answer(controller, controller_recorder, patient))
+      if (std::optional<RobotTarget> target = Answer(*controller, controller_recorder, patient))
         delay.Add(*target);
       if (!delay.Ready(k)) ++pinfo->lockstep_timeouts;  // the controller gave no answer
       patient.Step(delay.TakeFor(k));
@@ -55,7 +63,7 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, Contro
       code = 1;
     } else if (code == 0) {  // the final state, answered like over DDS
       outputs.OnFrame(patient);
-      Answer(controller, controller_recorder, patient);
+      Answer(*controller, controller_recorder, patient);
     }
   } catch (const SolverError& e) {
     std::cerr << "direct_sim run: runtime failure at t = " << patient.time() << " s: " << e.what()
@@ -66,7 +74,7 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, Contro
   }
   pinfo->wall_time = MonotonicSeconds() - start;
   if (code == 0) cinfo->ending = "direct_finished";
-  cinfo->frames_received = controller.counts().observed;
+  cinfo->frames_received = controller->counts().observed;
   return code;
 }
 

@@ -6,6 +6,10 @@
 // timeseries.csv and final error to the last digit, without the network; for tests and
 // batches.
 
+#include <cstdint>
+#include <functional>
+#include <memory>
+
 #include "common/results/controller_recorder.h"
 #include "common/results/patient_recorder.h"
 #include "common/scene/patient_loop.h"
@@ -15,11 +19,23 @@
 
 namespace nsim {
 
+/// For experiments (direct_sim run --in-process --restart-controller-at S): at step at_step
+/// (-1: never) the controller is replaced by make()'s, which sees the frames from then on (its
+/// model catches up from the first, ControllerLoop), and the robot's command and the answers
+/// not yet applied are dropped: a new inverse_sim taking over without the frame history
+/// (direct_sim's ControllerWatch; over DDS in lockstep the new one gets the history instead).
+struct ControllerRestart {
+  int64_t at_step = -1;
+  std::function<std::unique_ptr<ControllerLoop>()> make;
+};
+
 /// Runs the insertion; fills both infos and returns the exit code (0 completed, 1 runtime
 /// failure: diverged, interrupted; 2 a controller model that cannot be built from the
-/// scenario).
-int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs, ControllerLoop& controller,
+/// scenario). `controller` is the one running at the end.
+int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs,
+                           std::unique_ptr<ControllerLoop>& controller,
                            ControllerRecorder& controller_recorder, const RunConfig& run,
-                           PatientRunInfo* patient_info, ControllerRunInfo* controller_info);
+                           PatientRunInfo* patient_info, ControllerRunInfo* controller_info,
+                           const ControllerRestart& restart = {});
 
 }  // namespace nsim

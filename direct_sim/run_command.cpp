@@ -49,6 +49,9 @@ void DeclareOptions(CommandLine& cli) {
             "run the controller (inverse_sim's loop) in this process, in lockstep, without DDS")
       .Option("controller-out", "DIR",
               "with --in-process: the controller's results folder (default DIR/../inverse)")
+      .Option("restart-controller-at", "S",
+              "with --in-process: replace the controller at simulated time S by a new one whose "
+              "model catches up from that frame (a restart without the frame history)")
       .Flag("no-video", "no view (no window, no video, no PNG)")
       .Flag("check",
             "only read and check the scenario, its meshes and the options, then exit (0: valid, "
@@ -112,15 +115,24 @@ int RunInProcess(const CommandLine& cli, const DirectScenario& scenario, Patient
                                  "inverse").string();
   std::filesystem::create_directories(out);
   ControllerRecorder recorder(out);
-  ControllerLoop controller(inverse.loop, ReadGmshMesh(inverse.mesh_path));
+  const TetMesh mesh = ReadGmshMesh(inverse.mesh_path);
+  auto controller = std::make_unique<ControllerLoop>(inverse.loop, mesh);
+  ControllerRestart restart;
+  if (cli.Has("restart-controller-at")) {
+    const double at = cli.GetDouble("restart-controller-at");
+    if (!(at >= 0) || !std::isfinite(at))
+      throw InputError(Str("--restart-controller-at must be >= 0 (s), got ", at));
+    restart.at_step = std::llround(at / scenario.scene.time_step);
+    restart.make = [&] { return std::make_unique<ControllerLoop>(inverse.loop, mesh); };
+  }
   ControllerRunInfo cinfo;
   cinfo.scenario = inverse.source;
   cinfo.mesh = inverse.mesh_path;
   cinfo.scenario_hash = inverse.scenario_hash;
   cinfo.transport = "in_process";
   const int code = RunClosedLoopInProcess(patient, outputs, controller, recorder, scenario.run,
-                                          info, &cinfo);
-  recorder.WriteSummary(controller, cinfo);
+                                          info, &cinfo, restart);
+  recorder.WriteSummary(*controller, cinfo);
   return code;
 }
 
@@ -136,6 +148,8 @@ int RunDirect(int argc, char** argv) {
   const bool controller = !cli.GetFlag("no-controller");
   if (in_process && !controller)
     throw InputError("--in-process and --no-controller exclude each other");
+  if (cli.Has("restart-controller-at") && !in_process)
+    throw InputError("--restart-controller-at needs --in-process");
   DirectScenario scenario = LoadDirectScenario(cli.GetString("config"));
   ApplyOptions(cli, &scenario);
   transport::TransportConfig tc = transport::TransportFromCli(cli);

@@ -44,9 +44,14 @@ dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
   dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
   // a target reader keeps the targets of a whole step (kTargetReaderDepth): every target that
   // arrives is checked and counted, and a stranger's flood cannot push the owner's target out
-  // of a history of one (RobotTarget has no key: all writers share one instance)
+  // of a history of one (RobotTarget has no key: all writers share one instance); a status
+  // reader keeps the last few: every process writes on the (keyless) status topic, and with
+  // several controllers (one taking over, or a standby) one's status would otherwise replace
+  // another's before it is read (a controller missed direct_sim's "finished")
+  constexpr int kStatusReaderDepth = 32;
   const int depth = profile == Qos::kLossless                 ? c.lossless_depth
                     : profile == Qos::kTarget && !writer ? kTargetReaderDepth
+                    : profile == Qos::kStatus && !writer ? kStatusReaderDepth
                                                               : 1;
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
   // Writers offer transient-local; status and lossless readers request it. A volatile reader
@@ -57,6 +62,12 @@ dds_qos_t* MakeQos(const TransportConfig& c, Qos profile, bool writer) {
   const bool transient_local = writer || profile == Qos::kStatus || profile == Qos::kLossless;
   dds_qset_durability(q,
                       transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+  // what a lossless writer keeps for a reader that joins late (Cyclone's default: the last
+  // sample): the whole history, so a controller restarted mid-run gets the frames from the
+  // start (up to lossless_depth) and its model replays the insertion
+  if (writer && profile == Qos::kLossless)
+    dds_qset_durability_service(q, 0, DDS_HISTORY_KEEP_LAST, depth, DDS_LENGTH_UNLIMITED,
+                                DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
   // a writer asserts liveliness within its lease; a reader accepts any lease, so processes
   // with different leases still match and each writer's own lease decides when it is dead
   dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC,
@@ -270,12 +281,27 @@ uint64_t Reader<Sample>::ParticipantOfWriter(uint64_t writer) {
 }
 
 template <typename Sample>
+std::vector<uint64_t> Reader<Sample>::MatchedWriters() {
+  std::vector<dds_instance_handle_t> handles(8);
+  while (true) {
+    const dds_return_t n = dds_get_matched_publications(reader_, handles.data(), handles.size());
+    Checked(n, "get matched publications");
+    const bool all = static_cast<size_t>(n) <= handles.size();
+    handles.resize(static_cast<size_t>(n));
+    if (all) return {handles.begin(), handles.end()};
+  }
+}
+
+template <typename Sample>
 ReaderHealth Reader<Sample>::health() {
   dds_liveliness_changed_status_t live;
   Checked(dds_get_liveliness_changed_status(reader_, &live), "get liveliness status");
   health_.writers_alive = static_cast<int>(live.alive_count);
   if (live.not_alive_count_change > 0) health_.liveliness_lost += live.not_alive_count_change;
   if (live.alive_count_change < 0) health_.writers_gone += -live.alive_count_change;
+  health_.alive_change = live.alive_count_change;
+  health_.not_alive_change = live.not_alive_count_change;
+  health_.last_changed_writer = live.last_publication_handle;
   dds_requested_deadline_missed_status_t dl;
   Checked(dds_get_requested_deadline_missed_status(reader_, &dl), "get deadline status");
   health_.deadline_missed = dl.total_count;

@@ -58,7 +58,8 @@ struct TransportConfig {
 enum class Qos {
   kStateStream,  ///< SensorFrame: reliable, keep-last 1
   kTarget,       ///< RobotTarget: reliable, keep-last 1 written, kTargetReaderDepth read
-  kStatus,       ///< SimStatus: reliable, keep-last 1, transient-local (late joiners get the last)
+  kStatus,       ///< SimStatus: reliable, keep-last 1 (readers: 32), transient-local (late
+                 ///< joiners get the last of each writer)
   kLossless,     ///< a stream where every sample matters (replay, recording): reliable,
                  ///< keep-last lossless_depth on both sides, transient-local, so a sample lost
                  ///< on the wire or written before the reader synchronized can still be resent;
@@ -130,6 +131,11 @@ struct ReaderHealth {
   uint64_t deadline_missed = 0;  ///< times the stream's deadline passed without a sample
   uint64_t invalid = 0;          ///< samples dropped because they failed validation
   std::string last_invalid;      ///< why the last dropped sample was invalid
+  /// The liveliness changes since the previous health() call: alive and not-alive counts'
+  /// changes, and the writer (instance handle) that changed last. One writer's change is +1/0
+  /// (matched), -1/+1 (lease expired), +1/-1 (alive again), -1/0 or 0/-1 (unmatched).
+  int alive_change = 0, not_alive_change = 0;
+  uint64_t last_changed_writer = 0;
 };
 
 /// A typed reader of one sample type.
@@ -152,6 +158,8 @@ class Reader {
   /// The identity (ParticipantId) of the participant a matched writer belongs to (its
   /// process), 0 when the writer is not (or no longer) matched.
   uint64_t ParticipantOfWriter(uint64_t writer);
+  /// The instance handles of the writers matched now.
+  std::vector<uint64_t> MatchedWriters();
   /// Polls and accumulates the liveliness, deadline and match statuses.
   ReaderHealth health();
 

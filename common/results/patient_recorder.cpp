@@ -76,6 +76,9 @@ void PatientRecorder::AddStep(const PatientLoop& loop) {
   const PatientStepReport& s = loop.last_step();
   step_ms_.push_back(s.wall_ms);
   if (s.holding) ++hold_steps_;
+  const uint64_t applied = loop.frame().applied_seq;
+  if (applied != SensorFrame::kNoTarget && applied != last_applied_) ++targets_applied_;
+  last_applied_ = applied;
   if (s.scene.num_active_rib_contacts > 0) ++rib_contact_steps_;
   if (!s.scene.solve.converged) ++unconverged_solves_;
   max_rib_penetration_ = std::max(max_rib_penetration_, s.max_rib_penetration);
@@ -148,6 +151,9 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   }
   j["targets"] = {{"received", g.received},
                   {"accepted", g.accepted},
+                  // carried out by the robot: an accepted target is not while the robot holds
+                  // for a lost controller, nor when a newer one replaces it before the step
+                  {"applied", targets_applied_},
                   {"rejected_total", g.rejected()},
                   {"rejected", rejected},
                   {"clamped", clamped},
@@ -161,6 +167,14 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   j["controller_returns"] = info.controller_returns;
   j["controller_lost_time_s"] =
       info.controller_lost_time ? json(*info.controller_lost_time) : json(nullptr);
+  j["controller_takeovers"] = info.takeovers;
+  j["controllers_refused"] = info.refused_controllers;
+  json owners = json::array();
+  for (const PatientRunInfo::Owner& o : info.owners)
+    owners.push_back({{"participant", o.participant},
+                      {"since_s", o.since},
+                      {"targets_applied", o.targets_applied}});
+  j["controller_owners"] = owners;
   j["max_rib_penetration_mm"] = 1e3 * max_rib_penetration_;
   j["rib_contact_steps"] = rib_contact_steps_;
   j["unconverged_constraint_solves"] = unconverged_solves_;

@@ -45,6 +45,17 @@ struct PatientRunInfo {
   std::map<std::string, uint64_t> foreign_by_writer;
   std::optional<double> controller_lost_time;  ///< simulated time it was first lost (s)
   uint64_t controller_losses = 0, controller_returns = 0;  ///< losses, and comebacks (stalls)
+  /// The robot's owners in turn: the controller bound at the start, then each that took over
+  /// a lost one (a re-handshake), with the targets of it the robot carried out.
+  struct Owner {
+    std::string participant;  ///< ParticipantId (hex)
+    double since = 0.0;       ///< simulated time it became the owner (s)
+    uint64_t targets_applied = 0;
+  };
+  std::vector<Owner> owners;
+  uint64_t takeovers = 0;  ///< owner changes after the start
+  /// controllers that said "running" while the robot had a live owner, refused (distinct)
+  uint64_t refused_controllers = 0;
   bool video = false, png = false;  ///< outputs written
   int vtk_snapshots = 0;
 };
@@ -82,6 +93,8 @@ class PatientRecorder {
   Eigen::Vector3d last_e_p_ = Eigen::Vector3d::Zero();
   int last_phase_ = 0;
   uint64_t hold_steps_ = 0, rib_contact_steps_ = 0, unconverged_solves_ = 0, frames_ = 0;
+  uint64_t targets_applied_ = 0;  // targets the robot carried out (a held one counted once)
+  uint64_t last_applied_ = SensorFrame::kNoTarget;
   std::optional<double> puncture_time_[2];
 };
 

@@ -26,6 +26,9 @@ class LockstepTargets {
   /// older ones); none when k < d or no such target arrived (the robot keeps its command).
   std::optional<RobotTarget> TakeFor(int64_t k);
 
+  /// Drops every target received (another controller took over).
+  void Clear() { pending_.clear(); }
+
   int latency_steps() const { return latency_steps_; }
   size_t pending() const { return pending_.size(); }
 

@@ -100,6 +100,9 @@ class PatientLoop {
 
   /// While lost, the robot holds whatever targets arrive (the pump sets it from DDS liveliness).
   void set_controller_lost(bool lost) { controller_lost_ = lost; }
+  /// Forgets the command: the robot holds until the gate accepts a new target (a new controller
+  /// took over: the old one's last command is not carried out for it).
+  void DropCommand() { command_.reset(); }
 
   int64_t steps() const { return steps_; }
   double time() const;

@@ -111,9 +111,24 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     Reject(Str("frame ", frame.stamp.seq, " has no robot state (a marker-only stream)"));
     return std::nullopt;
   }
-  if (!controller_)  // InputError here is fatal: the model cannot be built from the config
+  if (!controller_) {  // InputError here is fatal: the model cannot be built from the config
     controller_ = std::make_unique<SteeringController>(config_.model, config_.path,
                                                        config_.control, mesh_, frame.X_WE);
+    // the needle may already be in (a controller started mid-insertion): the model catches up
+    // with the measured markers and pose (nothing happens at the start of an insertion)
+    SteeringInput now;
+    now.p_WM = frame.p_WM;
+    now.X_WE = frame.X_WE;
+    if (frame.q.size() == 7) now.q = Eigen::Map<const Vector7d>(frame.q.data());
+    try {
+      catch_up_ = controller_->CatchUp(now);
+    } catch (const InputError& e) {  // a malformed frame: the model is built at the next one
+      controller_.reset();
+      Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
+      return std::nullopt;
+    }
+    first_answered_seq_ = static_cast<int64_t>(frame.stamp.seq);
+  }
   const double t = frame.stamp.sim_time;
   ControllerRecord& r = record_;
   r = ControllerRecord();

@@ -6,6 +6,18 @@
 // command and the patient side's gate makes it hold after safety.hold_timeout). Frames that
 // are not answered (realtime: older than the newest) still feed the predictor (Observe).
 // The DDS pump of inverse_sim and the in-process closed loop drive the same class.
+//
+// A controller started (or restarted) in the middle of an insertion re-synchronizes its model
+// from the frames. Given the frames from the start of the run (inverse_sim over DDS in
+// lockstep: a late reader of the lossless frame stream gets its history, up to
+// TransportConfig::lossless_depth = 4096 frames, 82 s at 50 Hz) it answers them all in order
+// and its model, predictor and path index replay the insertion exactly. Otherwise (realtime: only the newest frame; a longer
+// run) the first frame it answers finds the needle in: the model is built at the measured
+// flange pose and caught up (SteeringController::CatchUp: driven in along the registered path,
+// then moved to the measured pose, the markers at their measured positions), the first control
+// step advances the path index past the targets the tip has passed, and the marker predictor,
+// the horizon and the measured latency start fresh (the predictor is ready once its buffer
+// has filled again; until then the model registers to the measured markers).
 
 #include <cstdint>
 #include <deque>
@@ -84,7 +96,8 @@ struct ControllerCounts {
 class ControllerLoop {
  public:
   /// Validates the configs (InputError). The model is built at the first answered frame, with
-  /// the needle at the measured flange pose.
+  /// the needle at the measured flange pose, caught up when the needle is already in (see the
+  /// file comment).
   ControllerLoop(const ControllerLoopConfig& config, TetMesh mesh);
   ~ControllerLoop();
 
@@ -118,6 +131,11 @@ class ControllerLoop {
   const TetMesh& mesh() const { return mesh_; }
   /// The steering controller (null before the first answered frame).
   const SteeringController* controller() const { return controller_.get(); }
+  /// What the model's catch-up at the first answered frame did (done = false: the needle was
+  /// not in, or no frame answered yet).
+  const CatchUpReport& catch_up() const { return catch_up_; }
+  /// The sequence number of the first frame answered (-1: none yet).
+  int64_t first_answered_seq() const { return first_answered_seq_; }
 
  private:
   bool Accept(const SensorFrame& frame);  // validity and order checks; counts a rejection
@@ -132,6 +150,8 @@ class ControllerLoop {
   ControllerLoopConfig config_;
   TetMesh mesh_;
   std::unique_ptr<SteeringController> controller_;
+  CatchUpReport catch_up_;
+  int64_t first_answered_seq_ = -1;
   std::unique_ptr<MarkerPredictor> predictor_;
   HorizonEstimator horizon_;
   PredictionScore score_;

@@ -59,6 +59,18 @@ Eigen::VectorXd SteeringController::CalcObjectives(const SteeringEvaluation& eva
   return e;
 }
 
+CatchUpReport SteeringController::CatchUp(const SteeringInput& input,
+                                          const CatchUpConfig& config) {
+  Eigen::Isometry3d X_WF = input.X_WE;
+  if (control_.dof == SteeringDof::kJoint7) {
+    if (!input.q.allFinite()) throw InputError("steering input: joint angles must be finite");
+    X_WF = CalcFlangePose(input.q);
+  }
+  const CatchUpReport report = sim_->CatchUp(input.p_WM, X_WF, config);
+  X_WN_step_ = sim_->X_WN();
+  return report;
+}
+
 SteeringOutput SteeringController::Update(const SteeringInput& input) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();

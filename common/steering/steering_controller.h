@@ -85,6 +85,15 @@ class SteeringController {
                      const Eigen::Isometry3d& X_WE0);
   ~SteeringController();
 
+  /// Before the first Update, for a controller that starts while the needle may already be in
+  /// (SteeringSimulation::CatchUp): the model's needle is driven in to the measured flange pose
+  /// (input.X_WE, or the pose of input.q for kJoint7) with the markers at input.p_WM. The path
+  /// index and the phase need no catch-up: the first Update advances the index past every path
+  /// target the tip has passed, and takes the phase from input.entry and the model's liver; the
+  /// entry plane of e_e is the first measured entry point it sees (the current one, not the
+  /// one at the skin's puncture, which a frame does not carry).
+  CatchUpReport CatchUp(const SteeringInput& input, const CatchUpConfig& config = {});
+
   /// One control step (see the file comment). InputError on malformed input (marker count,
   /// non-finite values).
   SteeringOutput Update(const SteeringInput& input);

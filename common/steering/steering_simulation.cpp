@@ -1,7 +1,11 @@
 #include "common/steering/steering_simulation.h"
 
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <optional>
+#include <stdexcept>
 
 #include "common/core/error.h"
 #include "common/mesh/point_locator.h"
@@ -82,6 +86,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   }
   direction_ = (path.target_W - path.entry_W).normalized();
   const Eigen::Vector3d start = path.entry_W - path.approach_distance * direction_;
+  start_W_ = start;
   const double travel = (path.target_W - start).norm();
   const int n = std::max(1, static_cast<int>(std::ceil(travel / path.spacing - 1e-9)));
   std::vector<Eigen::Vector3d> points;
@@ -129,6 +134,115 @@ Eigen::Isometry3d SteeringSimulation::CalcStartFlangePose(const NeedleConfig& ne
   X_WN.linear() = FrameWithZ(z);
   X_WN.translation() = tip - needle.length * z;
   return X_WN * CalcToolOffset(needle).inverse();
+}
+
+void CatchUpConfig::Validate() const {
+  if (!(advance_per_step > 0) || !std::isfinite(advance_per_step))
+    throw InputError(Str("catch_up.advance_per_step must be > 0 (m), got ", advance_per_step));
+  if (register_steps < 1)
+    throw InputError(Str("catch_up.register_steps must be >= 1, got ", register_steps));
+  if (settle_steps < 0)
+    throw InputError(Str("catch_up.settle_steps must be >= 0, got ", settle_steps));
+  if (!(rotation_per_step > 0) || !std::isfinite(rotation_per_step))
+    throw InputError(Str("catch_up.rotation_per_step must be > 0 (rad), got ", rotation_per_step));
+  if (!(min_depth >= 0) || !std::isfinite(min_depth))
+    throw InputError(Str("catch_up.min_depth must be >= 0 (m), got ", min_depth));
+}
+
+CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_WM,
+                                          const Eigen::Isometry3d& X_WF,
+                                          const CatchUpConfig& config) {
+  const auto t0 = std::chrono::steady_clock::now();
+  config.Validate();
+  if (steps_ > 0) throw std::logic_error("SteeringSimulation::CatchUp after a Step");
+  if (p_WM.size() != markers_.size()) {
+    throw InputError(Str("inverse simulation: expected ", markers_.size(), " markers, got ",
+                         p_WM.size()));
+  }
+  for (const Eigen::Vector3d& p : p_WM) {
+    if (!p.allFinite()) throw InputError("inverse simulation: a marker position is not finite");
+  }
+  if (!IsRigidTransform(X_WF, 1e-6)) {
+    throw InputError("inverse simulation: the flange pose must be a finite rigid transform");
+  }
+  CatchUpReport report;
+  const double length = needle_.length();
+  const Eigen::Isometry3d X_WN = needle_.CalcNeedlePose(X_WF);
+  const Eigen::Vector3d tip = CalcTipPosition(X_WN, length);
+  if (!((tip - start_W_).dot(X_WN.linear().col(2)) > config.min_depth)) {
+    ResetRigidNeedle(needle_, X_WF, needle_state_);  // outside: the model starts as it is
+    return report;
+  }
+  const Eigen::Isometry3d X_NF = needle_.get_tool_offset().inverse();
+  // the flange pose of a needle whose tip is at p with orientation R
+  auto flange = [&](const Eigen::Vector3d& p, const Eigen::Matrix3d& R) {
+    Eigen::Isometry3d N = Eigen::Isometry3d::Identity();
+    N.linear() = R;
+    N.translation() = p - R.col(2) * length;
+    return N * X_NF;
+  };
+  auto step = [&](const std::vector<Eigen::Vector3d>& markers, const Eigen::Isometry3d& X) {
+    Step(markers, X);
+    ++report.steps;
+  };
+
+  // 1. the markers to their measured positions, the needle parked a needle length before the
+  //    path's start (no coupling: it may be moved freely afterwards)
+  ResetRigidNeedle(needle_, flange(start_W_ - length * direction_, FrameWithZ(direction_)),
+                   needle_state_);
+  std::vector<Eigen::Vector3d> markers(markers_.size());
+  for (int i = 1; i <= config.register_steps; ++i) {
+    const double s = static_cast<double>(i) / config.register_steps;
+    for (size_t m = 0; m < markers_.size(); ++m)
+      markers[m] = config_.markers_W[m] + s * (p_WM[m] - config_.markers_W[m]);
+    step(markers, needle_state_.X_WN_end * X_NF);
+  }
+
+  // 2. the path as the registered liver carries it: its start and direction
+  const std::vector<Eigen::Vector3d> path = CalcPathPositions();
+  const double spacing_0 = (path_.size() > 1 ? (path[1] - path[0]).norm() : 0.0);
+  const Eigen::Vector3d d =
+      path.size() > 1 ? Eigen::Vector3d((path.back() - path.front()).normalized()) : direction_;
+  Eigen::Vector3d start = path.front() - spacing_0 * d;
+  const TetLocator deformed(mesh_, state_->x);
+  for (int i = 0; i < 10 && deformed.Locate(start); ++i) start -= config_.point_spacing * d;
+  const double depth = (tip - start).dot(d);
+  // the needle's orientation along the path: its measured one turned from its axis onto d
+  const Eigen::Matrix3d R_path =
+      Eigen::Quaterniond::FromTwoVectors(X_WN.linear().col(2), d).toRotationMatrix() *
+      X_WN.linear();
+
+  // 3. driven in along the path to the measured tip's depth: the coupling punctures and seeds
+  //    its points at the path's material points, as for an insertion that followed the plan
+  ResetRigidNeedle(needle_, flange(start, R_path), needle_state_);
+  const int n = std::max(0, static_cast<int>(std::ceil(depth / config.advance_per_step - 1e-9)));
+  for (int i = 1; i <= n; ++i) step(p_WM, flange(start + (depth * i / n) * d, R_path));
+  const Eigen::Vector3d tip_path = start + std::max(0.0, depth) * d;
+
+  // 4. from the path to the measured pose (the tip on a line, the orientation by slerp), the
+  //    tissue on the needle following it; then held
+  const Eigen::Quaterniond q0(R_path), q1(X_WN.linear());
+  const double angle = q0.angularDistance(q1);
+  const int m = std::max(
+      1, static_cast<int>(std::ceil(std::max((tip - tip_path).norm() / config.advance_per_step,
+                                             angle / config.rotation_per_step) -
+                                    1e-9)));
+  for (int i = 1; i <= m; ++i) {
+    const double s = static_cast<double>(i) / m;
+    step(p_WM, i == m
+                   ? X_WF
+                   : flange(tip_path + s * (tip - tip_path), q0.slerp(s, q1).toRotationMatrix()));
+  }
+  for (int i = 0; i < config.settle_steps; ++i) step(p_WM, X_WF);
+
+  report.done = true;
+  report.depth = depth;
+  report.aligned = (tip - tip_path).norm();
+  report.aligned_angle = angle;
+  report.liver_phase = coupling_state_.tissues[0].phase;
+  report.liver_points = static_cast<int>(coupling_state_.tissues[0].points.size());
+  report.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return report;
 }
 
 SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& p_WM,

@@ -12,6 +12,17 @@
 // tip, the path targets and the entry point be at the end of this step had the flange been at
 // X_WF'" by a constraint-space solve only, without touching the state (thesis eq. 3.6 / A.2;
 // DESIGN.md "Speed"). EvaluateAt(X_WF) reproduces the committed step.
+//
+// A model built while the needle is already in (a controller started, or restarted, in the
+// middle of an insertion) catches up with CatchUp before its first Step. The tissue's state
+// around the needle depends on where the needle entered it and how it moved since, which no
+// single frame shows (on liver_test_coarse, 5 s into the insertion, a needle driven in straight
+// along its measured axis left the model's target 5.5 mm from where the model that followed the
+// insertion has it). CatchUp assumes what a controlled insertion does: the needle went in along
+// the planned path in the tissue. It brings the markers to their measured positions, drives the
+// needle in along the path as the registered liver carries it, to the measured tip's depth (the
+// coupling punctures the model liver and seeds its entry and trajectory points at the path's
+// material points), then moves it, the tissue on it following, to the measured pose.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -48,6 +59,40 @@ struct SteeringEvaluation {
   SnapshotSolveReport solve;
 };
 
+/// How CatchUp drives the needle in.
+struct CatchUpConfig {
+  /// Needle advance per model step while it is driven in (m), > 0. 1 mm, the robot's own
+  /// limit per control step: vs an insertion of 0.2 mm per step to 50 mm in a static liver
+  /// (tests/steering/steering_simulation_test.cpp) the nodes differ by 0.02-0.04 mm after it
+  /// (0.2 mm steps: < 0.001 mm, 5 times the cost; 2 mm steps: 0.13 mm and one trajectory point
+  /// fewer).
+  double advance_per_step = 1e-3;
+  /// Steps over which the markers go from their rest positions to the measured ones, >= 1.
+  int register_steps = 10;
+  /// Largest turn of the needle per model step when it is moved from the path to the measured
+  /// pose (rad), > 0: the robot's own limit per control step.
+  double rotation_per_step = 0.01;
+  /// Steps at the final pose, markers and needle held, for the tissue to settle, >= 0.
+  int settle_steps = 10;
+  /// No catch-up when the tip is at most this far past the path's start along the needle (m).
+  double min_depth = 1e-4;
+
+  /// Throws InputError "catch_up.<key> ...".
+  void Validate() const;
+};
+
+/// What CatchUp did.
+struct CatchUpReport {
+  bool done = false;           ///< the needle was driven in (false: it was not in, nothing done)
+  double depth = 0.0;          ///< how far the tip was driven in along the path (m)
+  double aligned = 0.0;        ///< how far the tip then moved to its measured position (m)
+  double aligned_angle = 0.0;  ///< and how far the needle turned (rad)
+  int steps = 0;               ///< model steps taken
+  TissuePhase liver_phase = TissuePhase::kOutside;  ///< after the catch-up
+  int liver_points = 0;    ///< the liver's entry, trajectory and exit points after it
+  double wall_time = 0.0;  ///< (s)
+};
+
 /// What one Step did.
 struct SteeringStepReport {
   double time = 0.0;  ///< model time at the end of the step (s)
@@ -70,6 +115,18 @@ class SteeringSimulation {
   /// One step: the markers reach p_WM (m, one per configured marker) and the flange X_WF at
   /// the end of the step. InputError on a wrong marker count or non-finite input.
   SteeringStepReport Step(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF);
+
+  /// Before the first Step, for a needle that may already be in (see the file comment): when
+  /// the tip of the needle at X_WF is more than config.min_depth past the path's start along
+  /// the needle's axis, the needle is parked before the path, the markers are moved to p_WM
+  /// over config.register_steps, the needle is driven in along the registered path by
+  /// config.advance_per_step per step, moved to X_WF by at most advance_per_step and
+  /// rotation_per_step per step, and held for config.settle_steps, the markers at p_WM
+  /// throughout; otherwise the needle is put at X_WF and nothing else is done (a needle that
+  /// starts outside: the model is as built). InputError on a wrong marker count or non-finite
+  /// input; std::logic_error after a Step.
+  CatchUpReport CatchUp(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF,
+                        const CatchUpConfig& config = {});
 
   /// The end of the last step re-solved with the flange at X_WF (constraint-space solve on the
   /// frozen step; no side effects). Before the first Step: kinematic only (rest tissue).
@@ -118,6 +175,7 @@ class SteeringSimulation {
   std::vector<SnapshotProbe> probes_;  // one per distinct path reference, path_probe_[i]
   std::vector<int> path_probe_;
   Eigen::Vector3d direction_ = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d start_W_ = Eigen::Vector3d::Zero();  // the path's start (m)
   ConstraintSet set_;
   ConstraintSolver constraint_solver_;
   ConstraintSnapshot snapshot_;

@@ -1,9 +1,9 @@
 // The closed loop as two processes over DDS (configs/dds/local.xml), lockstep, on the coarse
 // scenario configs/scenarios/liver_test_coarse.yaml (liver_700 on both sides): the needle
 // reaches the target and the run is reproducible; a controller killed with SIGKILL mid-insertion
-// makes direct_sim hold the robot and report it; a prediction-on run scores every marker's
-// prediction better than not predicting (nRMS < 100 %). Every process is bounded in time and
-// killed by PID.
+// makes direct_sim hold the robot and report it (a process that never says "running" cannot
+// take it over); a prediction-on run scores every marker's prediction better than not
+// predicting (nRMS < 100 %). Every process is bounded in time and killed by PID.
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -24,6 +24,7 @@
 #include "common/core/clock.h"
 #include "messages/transport.h"
 #include "tests/integration/child_process.h"
+#include "tests/integration/closed_loop_util.h"
 #include "tests/integration/test_util.h"
 
 namespace nsim {
@@ -33,75 +34,15 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::Cat;
 using testing::ChildProcess;
+using testing::kBin;
+using testing::kDdsConfig;
 using testing::ReadText;
 using testing::TempDir;
-
-const std::string kBin = NSIM_BIN_DIR;
-const std::string kSource = NSIM_SOURCE_DIR;
-const std::string kScenario = kSource + "/configs/scenarios/liver_test_coarse.yaml";
-const std::string kDdsConfig = kSource + "/configs/dds/local.xml";
 constexpr int kDomain = 44;
 
-// liver_test_coarse.yaml with absolute mesh paths and the given edits, written into dir
-fs::path WriteScenario(const fs::path& dir,
-                       const std::vector<std::pair<std::string, std::string>>& edits) {
-  return testing::WriteEditedScenario(dir, "scenario.yaml", "liver_test_coarse.yaml", edits);
-}
-
-// one closed-loop run: inverse_sim and direct_sim on their own partition
-struct Loop {
-  // A 3 s liveliness lease unless the extra options give one: a 0.5 s lease can expire on a
-  // loaded 2-core machine (ctest -j2 next to a build) while both processes are alive.
-  Loop(const fs::path& dir, const std::string& name, const fs::path& scenario,
-       std::vector<std::string> direct_extra, std::vector<std::string> inverse_extra,
-       const fs::path& inverse_scenario = {})
-      : out(dir / name) {
-    const fs::path& controller_scenario = inverse_scenario.empty() ? scenario : inverse_scenario;
-    fs::create_directories(out);
-    const std::vector<std::string> dds = {"--dds-config", kDdsConfig,
-                                          "--domain",     std::to_string(kDomain),
-                                          "--partition",  name + "_" + std::to_string(getpid())};
-    for (auto* extra : {&direct_extra, &inverse_extra}) {
-      if (std::find(extra->begin(), extra->end(), "--lease") == extra->end())
-        extra->insert(extra->end(), {"--lease", "3"});
-    }
-    inverse = std::make_unique<ChildProcess>(
-        Cat(Cat({kBin + "/inverse_sim", "run", "--config", controller_scenario.string(), "--out",
-                 (out / "inverse").string(), "--timeout", "85", "--start-timeout", "30", "--quiet"},
-                inverse_extra),
-            dds),
-        (out / "inverse.log").string());
-    direct = std::make_unique<ChildProcess>(
-        Cat(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
-                 (out / "direct").string(), "--no-video", "--quiet"},
-                direct_extra),
-            dds),
-        (out / "direct.log").string());
-  }
-  json DirectSummary() const { return json::parse(ReadText(out / "direct/summary.json")); }
-  json InverseSummary() const { return json::parse(ReadText(out / "inverse/summary.json")); }
-  // timeseries.csv: states only (wall-clock step times are in step_times.csv)
-  std::string Timeseries() const { return ReadText(out / "direct/timeseries.csv"); }
-
-  fs::path out;
-  std::unique_ptr<ChildProcess> inverse, direct;
-};
-
-// rows of timeseries.csv as numbers (header skipped)
-std::vector<std::vector<double>> ReadRows(const fs::path& csv) {
-  std::ifstream in(csv);
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::vector<double> row;
-    std::stringstream s(line);
-    std::string cell;
-    while (std::getline(s, cell, ',')) row.push_back(std::stod(cell));
-    rows.push_back(row);
-  }
-  return rows;
-}
+using testing::Loop;
+using testing::ReadRows;
+using testing::WriteScenario;
 
 // Tolerance: the steady-state error of this scenario is 0.40 mm, its amplitude 0.44 mm
 // (measured, 11 s: the tip reaches the target after about 8 s with the scenario's gain 0.1);
@@ -267,33 +208,44 @@ TEST(ClosedLoop, AStalledControllerTakesOverAgainAndTheRunIsUnchanged) {
       << "the stall changed the run";
 }
 
+// A killed controller that no new one replaces: the robot holds to the end. A process that
+// answers every frame but never says "running" (an injector, 45 mm off) cannot take it over.
 TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
   const fs::path dir = TempDir("closed_loop_kill");
   // a killed controller does not come back: the loss is final after 2 s
   const fs::path scenario =
       WriteScenario(dir, {{"takeover_timeout: 30.0", "takeover_timeout: 2.0"}});
+  transport::TransportConfig tc;
+  tc.domain_id = kDomain;
+  tc.partition = "kill_" + std::to_string(getpid());  // the loop's partition
+  tc.config_file = kDdsConfig;
+  transport::Participant injector(tc);
+  transport::Reader<SensorFrame> frames(injector, transport::Qos::kLossless);
+  transport::Writer<RobotTarget> targets(injector, transport::Qos::kLossless);
   Loop loop(dir, "kill", scenario, {"--duration", "5"}, {"--prediction", "off", "--lease", "0.5"});
   // kill the controller once the needle is in the skin (phase >= 1) and moving
   const fs::path csv = loop.out / "direct/timeseries.csv";
-  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  bool in_skin = false;
-  while (!in_skin && std::chrono::steady_clock::now() < end) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    // the last complete line
-    std::string text = ReadText(csv);
-    const size_t end_of_last = text.rfind('\n');
-    if (end_of_last == std::string::npos || end_of_last == 0) continue;
-    text.resize(end_of_last);
-    const size_t start = text.rfind('\n');
-    if (start == std::string::npos) continue;  // only the header so far
-    std::stringstream row(text.substr(start + 1));
-    std::string cell;
-    for (int c = 0; c < 6 && std::getline(row, cell, ','); ++c) {
-    }
-    in_skin = !cell.empty() && cell != "phase" && std::stoi(cell) >= 1;
-  }
+  const bool in_skin = testing::WaitForRow(csv, [](const std::vector<double>& row) {
+    return row.size() > 5 && row[5] >= 1;
+  });
   ASSERT_TRUE(in_skin) << loop.direct->Output();
   loop.inverse->Kill(SIGKILL);
+  std::vector<SensorFrame> got;
+  uint64_t injected = 0;
+  const double until = MonotonicSeconds() + 60.0;
+  while (!loop.direct->Exited() && MonotonicSeconds() < until) {
+    frames.Wait(0.05);
+    got.clear();
+    frames.Take(got);
+    for (const SensorFrame& f : got) {
+      RobotTarget t;
+      t.stamp.seq = injected++;
+      t.answers_seq = f.stamp.seq;
+      t.X_WE = f.X_WE;
+      t.X_WE.translation() += Eigen::Vector3d(0.045, 0.0, 0.0);
+      targets.Write(t);
+    }
+  }
   const int code = loop.direct->Wait(60.0);
   const std::string output = loop.direct->Output();
   EXPECT_EQ(code, 1) << output;
@@ -307,6 +259,8 @@ TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
   EXPECT_GT(lost_at, 0.0);
   EXPECT_LT(lost_at, 4.5);
   EXPECT_EQ(d["steps"], 250);  // it keeps simulating the patient to the end
+  EXPECT_EQ(d["controller_takeovers"], 0);
+  EXPECT_GT(d["targets"]["foreign"].get<uint64_t>(), 50u) << d["targets"].dump();
   // the robot holds: after braking (<= 0.1 s at the robot's acceleration limit) it stays put
   const std::vector<std::vector<double>> rows = ReadRows(csv);
   ASSERT_FALSE(rows.empty());
