@@ -1,0 +1,102 @@
+#!/usr/bin/python3
+"""The final error of closed-loop runs split into its two shares, over the steady-state window
+(the last 20 % of the run, as the final error of summary.json):
+
+  registration  |model target - true target|: where the controller's model places the target
+                 against where it is in the patient (the model's registration to the markers,
+                 its mesh, its missing boundary conditions and friction)
+  control       |model target - model tip|: what the controller leaves of its own objective
+  final         |true target - true tip| (the model's tip is the true tip: the rigid needle is
+                 placed at the measured flange pose)
+
+Each share is the mean of its distance over the window's answered frames; the mean vector of
+the registration error (model - true, mm) shows its direction.
+
+usage: scripts/error_budget.py RUN_DIR [RUN_DIR ...]
+  RUN_DIR holds direct/timeseries.csv and inverse/inverse.csv (scripts/experiments.sh's
+  SETTING/run_R, or the --out / --controller-out folders of direct_sim run --in-process given as
+  DIRECT_DIR:INVERSE_DIR). Prints one line per run and the mean over the runs.
+Exit code 0, or 2 on bad input (the message names the file)."""
+
+import csv
+import math
+import os
+import sys
+
+
+def fail(message):
+    print("error_budget: " + message, file=sys.stderr)
+    sys.exit(2)
+
+
+def rows(path, keys):
+    if not os.path.isfile(path):
+        fail(path + ": missing")
+    with open(path) as f:
+        reader = csv.DictReader(f)
+        missing = [k for k in keys if k not in (reader.fieldnames or [])]
+        if missing:
+            fail("%s: no column %s" % (path, ", ".join(missing)))
+        out = []
+        for line, row in enumerate(reader, 2):
+            try:
+                out.append({k: float(row[k]) for k in keys})
+            except (TypeError, ValueError):
+                fail("%s:%d: expected numbers" % (path, line))
+    if not out:
+        fail(path + ": no rows")
+    return out
+
+
+def budget(direct_csv, inverse_csv):
+    xyz = lambda p: [p + "_" + a for a in "xyz"]
+    truth = rows(direct_csv, ["t"] + xyz("target") + xyz("tip"))
+    model = rows(inverse_csv, ["sim_time", "valid"] + xyz("model_tip") + xyz("model_target"))
+    by_time = {round(r["t"], 9): r for r in truth}
+    start = 0.8 * truth[-1]["t"]
+    final, registration, control, vector = [], [], [], [0.0, 0.0, 0.0]
+    for m in model:
+        t = round(m["sim_time"], 9)
+        if t < start or t not in by_time or m["valid"] != 1:
+            continue
+        d = by_time[t]
+        target = [d[k] for k in xyz("target")]
+        tip = [d[k] for k in xyz("tip")]
+        model_target = [m[k] for k in xyz("model_target")]
+        model_tip = [m[k] for k in xyz("model_tip")]
+        final.append(1e3 * math.dist(target, tip))
+        registration.append(1e3 * math.dist(model_target, target))
+        control.append(1e3 * math.dist(model_target, model_tip))
+        for i in range(3):
+            vector[i] += 1e3 * (model_target[i] - target[i])
+    if not final:
+        fail("%s and %s: no answered frame in the last 20 %% of the run" % (direct_csv, inverse_csv))
+    n = len(final)
+    mean = lambda v: sum(v) / len(v)
+    return mean(final), mean(registration), mean(control), [v / n for v in vector], n
+
+
+def main(argv):
+    if len(argv) < 2 or argv[1] in ("-h", "--help"):
+        print(__doc__)
+        return 0 if len(argv) >= 2 else 2
+    totals = []
+    for arg in argv[1:]:
+        if ":" in arg:
+            direct_dir, inverse_dir = arg.split(":", 1)
+        else:
+            direct_dir, inverse_dir = os.path.join(arg, "direct"), os.path.join(arg, "inverse")
+        f, r, c, v, n = budget(os.path.join(direct_dir, "timeseries.csv"),
+                               os.path.join(inverse_dir, "inverse.csv"))
+        totals.append((f, r, c))
+        print("%s: final %.3f mm = registration %.3f mm (model - true: %+.3f %+.3f %+.3f mm), "
+              "control %.3f mm; %d frames" % (arg, f, r, v[0], v[1], v[2], c, n))
+    if len(totals) > 1:
+        m = [sum(t[i] for t in totals) / len(totals) for i in range(3)]
+        print("mean over %d runs: final %.3f mm, registration %.3f mm, control %.3f mm"
+              % (len(totals), m[0], m[1], m[2]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
