@@ -234,7 +234,7 @@ TEST(ConstraintReferenceTest, SnapshotPerturbedPose) {
   X_new.translation() += Eigen::Vector3d(0.0005, -0.0003, 0.0002);
   SnapshotWorkspace ws;
   std::vector<Eigen::Vector3d> p;
-  const SnapshotSolveReport r = snapshot.Solve(X_new, ws, &p);
+  const ConstraintSolveReport r = snapshot.Solve(X_new, ws, &p);
   EXPECT_TRUE(r.converged);
   Eigen::VectorXd probe_positions(6);
   probe_positions << p[0], p[1];
