@@ -56,7 +56,9 @@ struct SteeringTimings {
 
 /// Result of one control step.
 struct SteeringOutput {
-  bool valid = false;  ///< false: non-finite objectives or Jacobian; hold the robot
+  /// false: non-finite objectives or Jacobian, or a constraint solve of the step (the model
+  /// step, the frozen-step solves of e and of the Jacobian) did not converge; hold the robot
+  bool valid = false;
   InsertionPhase phase = InsertionPhase::kBeforeSkin;
   int path_index = 0;        ///< current path target
   bool reached_end = false;  ///< the last path target is the current one
@@ -71,6 +73,7 @@ struct SteeringOutput {
   Eigen::Vector3d p_WTarget = Eigen::Vector3d::Zero();  ///< model's current path target (m)
   Eigen::Vector3d p_WFinal = Eigen::Vector3d::Zero();   ///< model's final target (m)
   int num_perturbations = 0;
+  int num_unconverged_solves = 0;  ///< constraint solves of this step that did not converge
   SteeringStepReport model;
   SteeringTimings timings;
 };
