@@ -50,7 +50,10 @@ Eigen::Vector2d ProjectDisk(const Eigen::Vector2d& q, double R) {
 double CalcAxialBound(const ConstraintGroup& group, const std::vector<ConstraintGroup>& groups,
                       const Eigen::VectorXd& lambda) {
   const ConstraintGroup& normal = groups[group.normal_group];
-  return group.mu * lambda.segment(normal.first_row, normal.num_rows).norm() + group.stiction;
+  double force = 0.0;  // |lambda of the normal group|
+  for (int i = normal.first_row; i < normal.first_row + normal.num_rows; ++i)
+    force = std::hypot(force, lambda[i]);
+  return group.mu * force + group.stiction;
 }
 
 // the force tolerance of the active set and of the reports at the multipliers lambda (N)
@@ -80,11 +83,18 @@ ConstraintMethod ChooseMethod(ConstraintMethod method, const std::vector<Constra
   return method;
 }
 
-// LDLT of ws.W_free (regularized when singular), solution of ws.rhs into ws.solution
-void SolveFreeBlock(const ConstraintSolverConfig& config, ConstraintWorkspace& ws,
-                    ConstraintSolveReport& report) {
-  ws.ldlt.compute(ws.W_free);
+// LDLT of ws.W_free, solution of ws.rhs into ws.solution: always regularized for the active set,
+// only when singular for the direct method (see the file comment)
+void SolveFreeBlock(const ConstraintSolverConfig& config, ConstraintMethod method,
+                    ConstraintWorkspace& ws, ConstraintSolveReport& report) {
   const double scale = ws.W_free.diagonal().maxCoeff();
+  if (method == ConstraintMethod::kActiveSet) {
+    ws.W_free.diagonal().array() += config.active_set_regularization * scale;
+    ws.ldlt.compute(ws.W_free);
+    ws.solution = ws.ldlt.solve(ws.rhs);
+    return;
+  }
+  ws.ldlt.compute(ws.W_free);
   if (ws.ldlt.info() != Eigen::Success ||
       !(ws.ldlt.vectorD().minCoeff() > config.singular_pivot_ratio * scale)) {
     // redundant rows: regularize (consistent rows are then met to ~eps |lambda|)
@@ -95,7 +105,7 @@ void SolveFreeBlock(const ConstraintSolverConfig& config, ConstraintWorkspace& w
   ws.solution = ws.ldlt.solve(ws.rhs);
 }
 
-// the active set of the file comment; leaves ws.r = delta + W lambda
+// the active set (and the direct method) of the file comment; leaves ws.r = delta + W lambda
 void SolveActiveSet(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta,
                     const std::vector<ConstraintGroup>& groups,
                     const ConstraintSolverConfig& config, ConstraintWorkspace& ws,
@@ -103,10 +113,6 @@ void SolveActiveSet(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta,
   const int m = static_cast<int>(W.rows());
   ws.clamped.assign(ws.degenerate.begin(), ws.degenerate.end());
   ws.clamp_value.setZero(m);
-  // contacts already separated by the free motion start clamped at zero
-  for (const ConstraintGroup& g : groups)
-    if (g.law == ConstraintLaw::kUnilateral && delta[g.first_row] >= 0.0)
-      ws.clamped[g.first_row] = 1;
   const double tol_g = config.position_tolerance;
   bool converged = false;
   int it = 0;
@@ -123,17 +129,23 @@ void SolveActiveSet(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta,
       if (lambda[i] != 0.0) ws.clamped_nonzero.push_back(i);
     }
     const int nf = static_cast<int>(ws.free_rows.size());
-    if (nf > 0) {
+    if (nf == m) {
+      ws.W_free = W;
+      ws.rhs = -delta;
+    } else if (nf > 0) {
       ws.W_free.resize(nf, nf);
       ws.rhs.resize(nf);
+      for (int b = 0; b < nf; ++b)
+        for (int a = 0; a < nf; ++a) ws.W_free(a, b) = W(ws.free_rows[a], ws.free_rows[b]);
       for (int a = 0; a < nf; ++a) {
         const int i = ws.free_rows[a];
         double s = -delta[i];
         for (int j : ws.clamped_nonzero) s -= W(i, j) * lambda[j];
         ws.rhs[a] = s;
-        for (int b = 0; b < nf; ++b) ws.W_free(a, b) = W(i, ws.free_rows[b]);
       }
-      SolveFreeBlock(config, ws, report);
+    }
+    if (nf > 0) {
+      SolveFreeBlock(config, report.method, ws, report);
       for (int a = 0; a < nf; ++a) lambda[ws.free_rows[a]] = ws.solution[a];
     }
     ws.r.noalias() = W * lambda;
@@ -412,6 +424,7 @@ ConstraintSolver::ConstraintSolver(const ConstraintSolverConfig& config) : confi
   NSIM_CHECK(config.position_tolerance > 0.0 && config.force_tolerance > 0.0,
              "active-set tolerances must be > 0");
   NSIM_CHECK(config.active_set_max_iterations > 0, "active_set_max_iterations must be > 0");
+  NSIM_CHECK(config.active_set_regularization > 0.0, "active_set_regularization must be > 0");
   NSIM_CHECK(config.singular_pivot_ratio > 0.0 && config.regularization > 0.0,
              "singular_pivot_ratio and regularization must be > 0");
 }

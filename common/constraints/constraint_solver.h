@@ -24,13 +24,16 @@
 //    force (degenerate: 0, see below; separated contact: 0; slipping axial friction:
 //    -sign(slip) times its bound). The free rows are solved exactly given the clamped ones;
 //    then rows whose law is violated by more than the tolerances switch and slipping bounds
-//    are refreshed from the new normal forces, until nothing changes. Contacts separated in the
-//    free motion (delta >= 0) start clamped. Exact (to round-off) once it stops.
-//  - direct: the active set when every row is bilateral: one LDLT of W.
+//    are refreshed from the new normal forces, until nothing changes (exact once it stops,
+//    but for the regularization). Every free block is factorized as W_ff + eps I with eps =
+//    active_set_regularization (1e-12) times its largest diagonal entry, so that redundant
+//    rows (a point held twice) cost no second factorization (the needle coupling's solver
+//    did so: its results are kept bit for bit).
+//  - direct, when every row is bilateral: the same free-rows LDLT of W, regularized only when
+//    singular: when its smallest pivot is below singular_pivot_ratio (1e-12) times its largest
+//    diagonal entry it is redone as (W + eps I), eps = regularization (1e-10) times that entry
+//    (a least-squares compromise for inconsistent redundant rows; report.regularized).
 //  - projected block Gauss-Seidel (PGS), for every law (the only one for Coulomb cones).
-// Every free-block LDLT whose smallest pivot is below singular_pivot_ratio times its largest
-// diagonal entry (redundant rows, e.g. a point held twice) is redone as (W_ff + eps I) with
-// eps = regularization times that entry (a least-squares compromise for inconsistent rows).
 // Rows with W_ii <= 1e-14 max W_jj (no compliant point) are degenerate: lambda = 0, counted.
 //
 // Convergence (ConstraintSolverConfig): PGS stops when the natural-map residual is <=
@@ -74,8 +77,11 @@ struct ConstraintSolverConfig {
   double force_tolerance = 1e-9;
   /// The active set gives up after this many solves and reports converged = false.
   int active_set_max_iterations = 100;
-  /// An LDLT counts as singular when its smallest pivot is below this times the largest
-  /// diagonal entry of the matrix (redundant rows, e.g. a point held twice) ...
+  /// Active set: every free block W_ff is factorized with this times its largest diagonal
+  /// entry added to its diagonal (-): keeps redundant rows solvable in one factorization.
+  double active_set_regularization = 1e-12;
+  /// Direct: W counts as singular when its smallest LDLT pivot is below this times its largest
+  /// diagonal entry (redundant rows, e.g. a point held twice) ...
   double singular_pivot_ratio = 1e-12;
   /// ... and is then solved as (W + eps I) lambda = -delta with eps = this times the largest
   /// diagonal entry of W (a least-squares compromise for inconsistent redundant rows).
@@ -90,7 +96,7 @@ struct ConstraintSolveReport {
   int num_rows = 0;
   int iterations = 0;        ///< PGS sweeps, or LDLT solves of the active set (1 for direct)
   bool converged = true;     ///< met its stopping rule (see the file comment), lambda finite
-  bool regularized = false;  ///< an LDLT was singular and regularized
+  bool regularized = false;  ///< direct: W was singular and regularized
   /// Largest natural-map residual over the rows (m): bilateral |r|; unilateral
   /// |min(W_ii lambda, r)|; friction tangents w_t |lambda_t - P_cone(lambda_t - r_t / w_t)|;
   /// axial friction W_ii |lambda - P_[-b,b](lambda - r / W_ii)|. Groups with a degenerate row

@@ -35,7 +35,7 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
   rows_.clear();
   groups_ = set.groups();
   config_ = solver.config();
-  config_.method = ConstraintMethod::kActiveSet;
+  config_.method = set.all_bilateral() ? ConstraintMethod::kDirect : ConstraintMethod::kActiveSet;
   std::vector<char> row_unilateral(set.num_rows(), 0);
   for (const ConstraintGroup& group : groups_) {
     if (group.law == ConstraintLaw::kFriction) {

@@ -17,9 +17,9 @@
 // same W); for rotations too, when the full step would turn its rows by the same rotation.
 //
 // The multipliers come from the constraint solver's SolveConstraintLaws (constraint_solver.h)
-// with the captured solver's settings and the active set: bilateral groups in one LDLT solve,
-// unilateral (contact) and axial friction rows by the active set. Coulomb friction groups are
-// not supported (Capture throws): the inverse model has none.
+// with the captured solver's settings: bilateral groups alone by the direct LDLT solve (as the
+// step itself), with unilateral (contact) or axial friction rows by the active set. Coulomb
+// friction groups are not supported (Capture throws): the inverse model has none.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -92,7 +92,7 @@ class ConstraintSnapshot {
   std::vector<Term> terms_;
   std::vector<Row> rows_;
   std::vector<ConstraintGroup> groups_;  // the set's laws
-  ConstraintSolverConfig config_;        // the captured solver's, with the active set
+  ConstraintSolverConfig config_;        // the captured solver's, direct or the active set
   int num_body_points_ = 0;
   std::vector<Eigen::Vector3d> free_;  // free positions of the body points (m)
   Eigen::MatrixXd G_;                  // 3B x 3B point blocks (m/N)
