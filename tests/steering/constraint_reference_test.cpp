@@ -19,12 +19,10 @@
 #include "common/constraints/constraint_solver.h"
 #include "common/constraints/dense_linear_body.h"
 #include "common/steering/constraint_snapshot.h"
-#include "tests/constraints/test_helpers.h"
+#include "tests/steering/constraint_test_problem.h"
 
-namespace nsim {
+namespace nsim::constraint_test {
 namespace {
-
-using testing::MakeChainConfig;
 
 // relative to the largest recorded value of each vector. The generic and the needle solves are
 // bit-identical to the recorded ones on this machine (Release build); 1e-12 leaves room for
@@ -58,13 +56,6 @@ void Check(const std::string& name, const Eigen::VectorXd& values,
 
 Eigen::VectorXd Flatten(const Eigen::Matrix3Xd& x) {
   return Eigen::Map<const Eigen::VectorXd>(x.data(), x.size());
-}
-
-// a chain of 6 particles along x (2 cm apart, coupled springs), loaded by gravity and a push,
-// after its free motion from rest
-DenseLinearBodyConfig ChainConfig() {
-  return MakeChainConfig(6, 0.02, 0.01, 60.0, 0.01, Eigen::Vector3d::Zero(),
-                         Eigen::Vector3d(0.0, 0.0, -9.81));
 }
 
 enum AxialRow { kAxialBilateral, kAxialFriction };
@@ -199,8 +190,7 @@ TEST(ConstraintReferenceTest, SnapshotPerturbedPose) {
   DenseLinearBody body(ChainConfig());
   body.external_forces().col(3) = Eigen::Vector3d(0.0, -0.05, -0.1);
   body.SolveFreeMotion();
-  Eigen::Isometry3d X_WN = Eigen::Isometry3d::Identity();
-  X_WN.translation() = Eigen::Vector3d(0.0, 0.001, 0.0005);
+  const Eigen::Isometry3d X_WN = CapturedPose();
   ConstraintSet set;
   const int b = set.AddBody(body);
   const Eigen::Vector3d x0 = body.start_positions().col(0);
@@ -222,19 +212,11 @@ TEST(ConstraintReferenceTest, SnapshotPerturbedPose) {
   solver.Assemble(set);
   std::vector<char> moves(set.num_points(), 0);
   for (int p = first_needle_point; p < set.num_points(); ++p) moves[p] = set.point(p).body < 0;
-  std::vector<SnapshotProbe> probes(2);
-  probes[0].nodes = {2};
-  probes[0].weights = {1.0};
-  probes[1].nodes = {3, 4, 5};
-  probes[1].weights = {0.2, 0.5, 0.3};
   ConstraintSnapshot snapshot;
-  snapshot.Capture(set, solver, b, moves, X_WN, probes);
-  Eigen::Isometry3d X_new = X_WN;
-  X_new.rotate(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.3, 0.2, 1.0).normalized()));
-  X_new.translation() += Eigen::Vector3d(0.0005, -0.0003, 0.0002);
+  snapshot.Capture(set, solver, b, moves, X_WN, Probes());
   SnapshotWorkspace ws;
   std::vector<Eigen::Vector3d> p;
-  const ConstraintSolveReport r = snapshot.Solve(X_new, ws, &p);
+  const ConstraintSolveReport r = snapshot.Solve(PerturbedPose(), ws, &p);
   EXPECT_TRUE(r.converged);
   Eigen::VectorXd probe_positions(6);
   probe_positions << p[0], p[1];
@@ -251,4 +233,4 @@ TEST(ConstraintReferenceTest, SnapshotPerturbedPose) {
 }
 
 }  // namespace
-}  // namespace nsim
+}  // namespace nsim::constraint_test

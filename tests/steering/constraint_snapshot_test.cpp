@@ -13,12 +13,10 @@
 #include "common/constraints/constraint_solver.h"
 #include "common/constraints/dense_linear_body.h"
 #include "common/core/error.h"
-#include "tests/constraints/test_helpers.h"
+#include "tests/steering/constraint_test_problem.h"
 
-namespace nsim {
+namespace nsim::constraint_test {
 namespace {
-
-using testing::MakeChainConfig;
 
 // the rows of a step whose needle was at X_capture when the rows were made (start positions
 // and targets) and is at X_WN at the step end (end positions and the needle rows' directions):
@@ -29,9 +27,7 @@ struct Step {
   ConstraintSet set;
   std::vector<char> moves_with_needle;
 
-  Step()
-      : body(MakeChainConfig(6, 0.02, 0.01, 60.0, 0.01, Eigen::Vector3d::Zero(),
-                             Eigen::Vector3d(0.0, 0.0, -9.81))) {
+  Step() : body(ChainConfig()) {
     body.external_forces().col(3) = Eigen::Vector3d(0.0, -0.05, -0.1);
     body.SolveFreeMotion();
   }
@@ -69,15 +65,6 @@ struct Step {
   }
 };
 
-std::vector<SnapshotProbe> Probes() {
-  std::vector<SnapshotProbe> probes(2);
-  probes[0].nodes = {2};
-  probes[0].weights = {1.0};
-  probes[1].nodes = {3, 4, 5};
-  probes[1].weights = {0.2, 0.5, 0.3};
-  return probes;
-}
-
 // corrected positions of the probes after a full solve of `step`
 std::vector<Eigen::Vector3d> SolveFully(Step& step, ConstraintSolver& solver,
                                         ConstraintSolveReport* report) {
@@ -93,12 +80,6 @@ std::vector<Eigen::Vector3d> SolveFully(Step& step, ConstraintSolver& solver,
     out.push_back(p);
   }
   return out;
-}
-
-Eigen::Isometry3d CapturedPose() {
-  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
-  X.translation() = Eigen::Vector3d(0.0, 0.001, 0.0005);
-  return X;
 }
 
 TEST(ConstraintSnapshotTest, CapturedPoseGivesTheStepSolve) {
@@ -139,9 +120,7 @@ TEST(ConstraintSnapshotTest, PerturbedPoseGivesTheFullSolveWithTheNeedleMoved) {
   solver.SolveMultipliers(step.set);
   ConstraintSnapshot snapshot;
   snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
-  Eigen::Isometry3d X_new = CapturedPose();
-  X_new.rotate(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.3, 0.2, 1.0).normalized()));
-  X_new.translation() += Eigen::Vector3d(0.0005, -0.0003, 0.0002);
+  const Eigen::Isometry3d X_new = PerturbedPose();
   SnapshotWorkspace ws;
   std::vector<Eigen::Vector3d> probes;
   const ConstraintSolveReport r = snapshot.Solve(X_new, ws, &probes);
@@ -177,4 +156,4 @@ TEST(ConstraintSnapshotTest, RejectsCoulombFrictionContacts) {
 }
 
 }  // namespace
-}  // namespace nsim
+}  // namespace nsim::constraint_test
