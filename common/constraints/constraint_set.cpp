@@ -119,22 +119,29 @@ int ConstraintSet::AddRow(const std::vector<ConstraintTerm>& terms, double targe
 }
 
 int ConstraintSet::AddGroup(ConstraintLaw law, int num_rows, double mu) {
-  const int ungrouped = this->num_rows() - first_ungrouped_row_;
-  if (num_rows != ungrouped)
-    throw InputError(
-        Str("constraints: a group must take all ", ungrouped, " ungrouped rows, got ", num_rows));
-  const int expected_min = law == ConstraintLaw::kFriction ? 3 : 1;
-  const int expected_max = law == ConstraintLaw::kBilateral ? 3 : expected_min;
-  if (num_rows < expected_min || num_rows > expected_max)
-    throw InputError(Str("constraints: this law expects ", expected_min, "-", expected_max,
-                         " rows, got ", num_rows));
-  if (!(mu >= 0.0) || !std::isfinite(mu))
-    throw InputError(Str("constraints: friction coefficient mu must be >= 0, got ", mu));
+  if (law == ConstraintLaw::kAxialFriction)
+    throw InputError("constraints: axial friction groups are made by AddAxialFriction");
   ConstraintGroup g;
   g.law = law;
-  g.first_row = first_ungrouped_row_;
   g.num_rows = num_rows;
   g.mu = mu;
+  return AddGroupImpl(g);
+}
+
+int ConstraintSet::AddGroupImpl(const ConstraintGroup& group) {
+  const int ungrouped = this->num_rows() - first_ungrouped_row_;
+  if (group.num_rows != ungrouped)
+    throw InputError(Str("constraints: a group must take all ", ungrouped, " ungrouped rows, got ",
+                         group.num_rows));
+  const int expected_min = group.law == ConstraintLaw::kFriction ? 3 : 1;
+  const int expected_max = group.law == ConstraintLaw::kBilateral ? 3 : expected_min;
+  if (group.num_rows < expected_min || group.num_rows > expected_max)
+    throw InputError(Str("constraints: this law expects ", expected_min, "-", expected_max,
+                         " rows, got ", group.num_rows));
+  if (!(group.mu >= 0.0) || !std::isfinite(group.mu))
+    throw InputError(Str("constraints: friction coefficient mu must be >= 0, got ", group.mu));
+  ConstraintGroup g = group;
+  g.first_row = first_ungrouped_row_;
   groups_.push_back(g);
   first_ungrouped_row_ = this->num_rows();
   return num_groups() - 1;
@@ -182,6 +189,33 @@ int ConstraintSet::AddFrictionContact(int a, int b, const Eigen::Vector3d& norma
   AddRow({{a, t1}, {b, -t1}}, t1.dot(rel_start));
   AddRow({{a, t2}, {b, -t2}}, t2.dot(rel_start));
   return AddGroup(ConstraintLaw::kFriction, 3, mu);
+}
+
+int ConstraintSet::AddAxialFriction(int a, int b, const Eigen::Vector3d& axis, int normal_group,
+                                    double mu, double stiction, const Eigen::Vector3d& offset) {
+  CheckPoint(a, "first");
+  CheckPoint(b, "second");
+  if (!IsFinite(axis) || axis.squaredNorm() == 0.0)
+    throw InputError("constraints: axial friction axis must be finite and nonzero");
+  if (!IsFinite(offset)) throw InputError("constraints: axial friction offset must be finite");
+  if (normal_group < 0 || normal_group >= num_groups() ||
+      groups_[normal_group].law != ConstraintLaw::kBilateral)
+    throw InputError(
+        Str("constraints: the normal force of axial friction must be a bilateral "
+            "group, got group ",
+            normal_group));
+  if (!(mu >= 0.0) || !std::isfinite(mu))
+    throw InputError(Str("constraints: friction coefficient mu must be >= 0, got ", mu));
+  if (!(stiction >= 0.0) || !std::isfinite(stiction))
+    throw InputError(Str("constraints: axial friction stiction must be >= 0 (N), got ", stiction));
+  AddRow({{a, axis}, {b, -axis}}, axis.dot(offset));
+  ConstraintGroup g;
+  g.law = ConstraintLaw::kAxialFriction;
+  g.num_rows = 1;
+  g.mu = mu;
+  g.stiction = stiction;
+  g.normal_group = normal_group;
+  return AddGroupImpl(g);
 }
 
 Eigen::Vector3d ConstraintSet::CalcPointPosition(

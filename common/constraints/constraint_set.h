@@ -1,7 +1,8 @@
 #pragma once
 // The constraints of one time step: points on bodies (barycentric combinations of nodes) or
 // kinematic (prescribed) points, rows over those points, and groups of rows sharing one law
-// (bilateral, unilateral contact, Coulomb friction contact). See constraint_body.h for units.
+// (bilateral, unilateral contact, Coulomb friction contact, the needle's axial friction). See
+// constraint_body.h for units and constraint_solver.h for how the laws are solved.
 //
 // A row i has terms t = (point p_t, direction d_t) and a target; its value at end-of-step
 // positions x is
@@ -22,11 +23,15 @@ namespace nsim {
 
 /// The law a group of rows obeys.
 enum class ConstraintLaw {
-  kBilateral,   ///< 1-3 rows, g = 0, lambda free (fixed point, trajectory, coupling)
-  kUnilateral,  ///< 1 row, g >= 0, lambda >= 0, g lambda = 0 (frictionless contact)
-  kFriction,    ///< 3 rows (normal, tangent 1, tangent 2): normal as kUnilateral; tangent rows
-                ///< measure the slip over the step; |lambda_t| <= mu lambda_n, sticking
-                ///< (zero slip) inside the cone, slip opposed by lambda_t on its boundary
+  kBilateral,      ///< 1-3 rows, g = 0, lambda free (fixed point, trajectory, coupling)
+  kUnilateral,     ///< 1 row, g >= 0, lambda >= 0, g lambda = 0 (frictionless contact)
+  kFriction,       ///< 3 rows (normal, tangent 1, tangent 2): normal as kUnilateral; tangent rows
+                   ///< measure the slip over the step; |lambda_t| <= mu lambda_n, sticking
+                   ///< (zero slip) inside the cone, slip opposed by lambda_t on its boundary
+  kAxialFriction,  ///< 1 row measuring a slip over the step (the needle's axial row) whose force
+                   ///< is bounded by mu |lambda_normal| + stiction, lambda_normal the multipliers
+                   ///< of another, bilateral group (the needle's two lateral rows): zero slip
+                   ///< inside the bound, slip opposed by lambda at the bound
 };
 
 /// Rows sharing one law, contiguous in the row list.
@@ -34,7 +39,9 @@ struct ConstraintGroup {
   ConstraintLaw law = ConstraintLaw::kBilateral;
   int first_row = 0;
   int num_rows = 0;
-  double mu = 0.0;  ///< Coulomb coefficient (kFriction only), >= 0
+  double mu = 0.0;        ///< Coulomb coefficient (kFriction, kAxialFriction), >= 0
+  double stiction = 0.0;  ///< kAxialFriction: constant part of the bound (N), >= 0
+  int normal_group = -1;  ///< kAxialFriction: the bilateral group whose force is the normal force
 };
 
 /// A point on a body (barycentric combination of nodes) or a kinematic point (body == -1).
@@ -104,10 +111,19 @@ class ConstraintSet {
   int AddFrictionContact(int a, int b, const Eigen::Vector3d& normal, double mu,
                          double gap_min = 0.0);
 
+  /// Axial friction (the needle's): one row axis . (x(a) - x(b)) = axis . offset, the relative
+  /// slip along `axis` (nonzero) over the step when offset is the start value, whose force is
+  /// bounded by mu |lambda of normal_group| + stiction (N): the group's rows (bilateral, e.g.
+  /// the two lateral rows of the same needle point) carry the normal force. Returns the group
+  /// index.
+  int AddAxialFriction(int a, int b, const Eigen::Vector3d& axis, int normal_group, double mu,
+                       double stiction, const Eigen::Vector3d& offset = Eigen::Vector3d::Zero());
+
   /// Low-level: appends a row with the given terms and target and no group; close the rows with
   /// AddGroup. Returns the row index.
   int AddRow(const std::vector<ConstraintTerm>& terms, double target);
-  /// Low-level: makes the last `num_rows` rows (not yet grouped) one group. Returns its index.
+  /// Low-level: makes the last `num_rows` rows (not yet grouped) one group of a law other than
+  /// kAxialFriction (AddAxialFriction). Returns its index.
   int AddGroup(ConstraintLaw law, int num_rows, double mu = 0.0);
 
   /// Value g_i at the given per-body positions (m): positions[b] is 3 x n_b; kinematic points
@@ -133,11 +149,13 @@ class ConstraintSet {
   const ConstraintRow& row(int i) const { return rows_[i]; }
   const ConstraintTerm& term(int t) const { return terms_[t]; }
   const ConstraintGroup& group(int g) const { return groups_[g]; }
+  const std::vector<ConstraintGroup>& groups() const { return groups_; }
   const std::vector<int>& point_nodes() const { return point_nodes_; }
   const std::vector<double>& point_weights() const { return point_weights_; }
 
  private:
   int AddPointImpl(int body, const int* nodes, const double* weights, int count, std::uint64_t key);
+  int AddGroupImpl(const ConstraintGroup& group);
   void CheckPoint(int p, const char* what) const;
 
   std::vector<ConstraintBody*> bodies_;

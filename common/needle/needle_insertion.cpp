@@ -5,7 +5,7 @@
 namespace nsim {
 
 NeedleInsertionStepper::NeedleInsertionStepper(const NeedleTissueCoupling& coupling,
-                                               const NeedleSolverConfig& config)
+                                               const ConstraintSolverConfig& config)
     : coupling_(coupling), solver_(config) {}
 
 void NeedleInsertionStepper::RemoveTissueLoads(const std::vector<FemConstraintBody*>& tissues) {
@@ -19,7 +19,7 @@ void NeedleInsertionStepper::Solve(const NeedleView& needle,
                                    NeedleCouplingState& state, NeedleStepReport& report) {
   coupling_.AddConstraints(needle, tissue_bodies_, set_, state);
   report.num_rows = set_.num_rows();
-  report.solve = solver_.Solve(set_, state.friction_rows);
+  report.solve = solver_.Solve(set_);
   for (FemConstraintBody* t : tissues) t->EndStep();
   tissue_x_.clear();
   for (FemConstraintBody* t : tissues) tissue_x_.push_back(&t->state().x);

@@ -9,9 +9,9 @@
 #include <utility>
 #include <vector>
 
+#include "common/constraints/constraint_solver.h"
 #include "common/constraints/fem_body.h"
 #include "common/needle/beam_needle.h"
-#include "common/needle/needle_constraint_solver.h"
 #include "common/needle/needle_tissue.h"
 #include "common/needle/rigid_needle.h"
 
@@ -19,7 +19,7 @@ namespace nsim {
 
 /// What one insertion step did.
 struct NeedleStepReport {
-  NeedleSolveReport solve;
+  ConstraintSolveReport solve;
   int num_rows = 0;           ///< constraint rows of the step
   bool bevel_active = false;  ///< the bevel load acted during the step
 };
@@ -37,7 +37,7 @@ class NeedleInsertionStepper {
  public:
   /// coupling must outlive the stepper.
   explicit NeedleInsertionStepper(const NeedleTissueCoupling& coupling,
-                                  const NeedleSolverConfig& config = {});
+                                  const ConstraintSolverConfig& config = {});
 
   /// One step with a rigid needle whose flange reaches X_WF_end at the step end. tissues[i] is
   /// the coupling's tissue i (at least one; all with the same time step).
@@ -51,7 +51,7 @@ class NeedleInsertionStepper {
                                 const std::vector<FemConstraintBody*>& tissues,
                                 NeedleCouplingState& state);
 
-  const NeedleConstraintSolver& solver() const { return solver_; }
+  const ConstraintSolver& solver() const { return solver_; }
   const ConstraintSet& set() const { return set_; }
 
  private:
@@ -60,7 +60,7 @@ class NeedleInsertionStepper {
              NeedleCouplingState& state, NeedleStepReport& report);
 
   const NeedleTissueCoupling& coupling_;
-  NeedleConstraintSolver solver_;
+  ConstraintSolver solver_;
   ConstraintSet set_;
   std::vector<int> tissue_bodies_;
   std::vector<const Eigen::Matrix3Xd*> tissue_x_;

@@ -196,7 +196,6 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
              "coupling state made for another coupling");
   const int n = needle.num_nodes();
   NSIM_CHECK(n >= 2 && needle.end.cols() == n, "needle view needs >= 2 nodes");
-  state.friction_rows.clear();
   state.tags.clear();
 
   const Eigen::Vector3d tip_start = needle.start.col(n - 1), tip_end = needle.end.col(n - 1);
@@ -285,18 +284,12 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
       tag.point = i;
       state.tags.push_back(tag);
       if (!friction) continue;
-      // axial row: relative axial slip over the step
+      // axial row: relative axial slip over the step, its force bounded by the lateral one
       const Eigen::Vector3d offset = z * z.dot(xp - PolylinePoint(needle.start, u));
-      set.AddBilateral(pt, pn, z, offset);
-      AxialFrictionRow fr;
-      fr.row = set.num_rows() - 1;
-      fr.lateral_rows[0] = tag.row;
-      fr.lateral_rows[1] = tag.row + 1;
-      fr.mu = cfg.friction_coefficient;
-      fr.stiction = cfg.friction_force_per_length * cfg.point_spacing;
-      state.friction_rows.push_back(fr);
+      set.AddAxialFriction(pt, pn, z, set.num_groups() - 1, cfg.friction_coefficient,
+                           cfg.friction_force_per_length * cfg.point_spacing, offset);
       tag.kind = CouplingRowTag::Kind::kAxial;
-      tag.row = fr.row;
+      tag.row = set.num_rows() - 1;
       tag.d0 = z;
       tag.d1.setZero();
       state.tags.push_back(tag);

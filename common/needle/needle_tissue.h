@@ -23,7 +23,8 @@
 //        the relative axial slip over the step) with |lambda| <= mu |lambda_lateral| + f_0,
 //        f_0 = friction_force_per_length * point_spacing: Coulomb friction whose normal force
 //        is estimated from the point's lateral constraint force, plus a constant stiction
-//        per unit length (NeedleConstraintSolver). Omitted when mu = f_0 = 0.
+//        per unit length (the kAxialFriction law of the constraint set, whose normal group
+//        is the point's lateral rows; constraint_solver.h). Omitted when mu = f_0 = 0.
 //    Tip constraint (tip_constraint): the tissue ahead of the tip is cut, so nothing holds
 //    the tip axially (the cutting resistance is not modelled), but laterally the tip follows
 //    the tissue: two rows orthogonal to the tip direction tie the needle tip to the tissue
@@ -42,7 +43,7 @@
 // Step protocol (see NeedleInsertionStepper for a complete driver):
 //   tissues and flexible needle: BeginStep (free motion); set.Clear(); add their bodies;
 //   coupling.AddConstraints(needle view, tissue body indices, set, state);
-//   NeedleConstraintSolver::Solve(set, state.friction_rows); end the steps;
+//   ConstraintSolver::Solve(set); end the steps;
 //   coupling.Update(needle view at the step end, tissue positions at the step end, solver
 //                   multipliers, time, state).
 
@@ -57,7 +58,6 @@
 #include "common/mesh/tet_mesh.h"
 #include "common/mesh/tet_point.h"
 #include "common/needle/bevel_tip.h"
-#include "common/needle/needle_constraint_solver.h"
 
 namespace nsim {
 
@@ -180,7 +180,6 @@ struct CouplingRowTag {
 struct NeedleCouplingState {
   std::vector<TissueCouplingState> tissues;
   std::uint64_t next_key = 1;
-  std::vector<AxialFrictionRow> friction_rows;  ///< for NeedleConstraintSolver::Solve
   std::vector<CouplingRowTag> tags;             ///< rows of the last AddConstraints
   /// Tissue holding the tip (kInside and located) after the last Update, -1: none. The bevel
   /// load acts while this is >= 0.
@@ -211,7 +210,7 @@ class NeedleTissueCoupling {
   NeedleCouplingState MakeState() const;
 
   /// Adds this step's rows to `set`. tissue_bodies[i]: index of tissue i's body in `set` (its
-  /// start and free positions are used). Fills state.friction_rows and state.tags.
+  /// start and free positions are used). Fills state.tags.
   void AddConstraints(const NeedleView& needle, const std::vector<int>& tissue_bodies,
                       ConstraintSet& set, NeedleCouplingState& state) const;
 

@@ -253,7 +253,7 @@ SceneStepReport PatientScene::Step(const Eigen::Isometry3d& X_WF_end, double bev
   report.num_rows = set_.num_rows();
 
   // resolution and correction, then the puncture / seeding update
-  report.solve = solver_.Solve(set_, state_.coupling.friction_rows);
+  report.solve = solver_.Solve(set_);
   skin_body_->EndStep();
   liver_body_->EndStep();
   if (needle_body_) needle_body_->EndStep();

@@ -11,8 +11,9 @@
 //   3. one constraint set: needle-tissue rows (common/needle) and liver-rib contact rows
 //      (liver surface node vs the closest point of a rib box, n . (x - q) >= 0, for the nodes
 //      within rib_contact_margin at the free motion);
-//   4. NeedleConstraintSolver (active set, exact for bilateral + unilateral + axial friction),
-//      corrections committed; puncture / seeding / retraction update of the coupling.
+//   4. ConstraintSolver (the active set, exact for bilateral + unilateral + axial friction,
+//      once the needle holds tissue; PGS for the rib contacts alone), corrections committed;
+//      puncture / seeding / retraction update of the coupling.
 // The model (meshes, FEM models, boxes, embedded points) is immutable after construction; the
 // state (FEM states, needle, coupling) is a copyable value; the solvers with their caches live
 // in the scene.
@@ -24,6 +25,7 @@
 #include <vector>
 
 #include "common/breathing/breathing.h"
+#include "common/constraints/constraint_solver.h"
 #include "common/constraints/fem_body.h"
 #include "common/fem/fem_model.h"
 #include "common/fem/fem_solver.h"
@@ -31,7 +33,6 @@
 #include "common/mesh/tet_mesh.h"
 #include "common/mesh/tet_point.h"
 #include "common/needle/beam_needle.h"
-#include "common/needle/needle_constraint_solver.h"
 #include "common/needle/needle_tissue.h"
 #include "common/needle/rigid_needle.h"
 #include "common/scene/scene_config.h"
@@ -96,7 +97,7 @@ struct SceneStepReport {
   int num_rows = 0;                 ///< constraint rows (needle + ribs)
   int num_rib_contacts = 0;         ///< rib contact rows
   int num_active_rib_contacts = 0;  ///< of which pushing (lambda > 0)
-  NeedleSolveReport solve;          ///< constraint resolution
+  ConstraintSolveReport solve;      ///< constraint resolution
   bool bevel_active = false;        ///< the bevel load acted
 };
 
@@ -152,7 +153,7 @@ class PatientScene {
   std::unique_ptr<FemSolver> liver_solver_, skin_solver_;
   std::unique_ptr<FemConstraintBody> liver_body_, skin_body_;
   std::unique_ptr<BeamNeedleBody> needle_body_;
-  NeedleConstraintSolver solver_;
+  ConstraintSolver solver_;
   ConstraintSet set_;
   std::vector<int> rib_rows_;
   // bevel loads added to the tissues last step: (tissue, node, force)

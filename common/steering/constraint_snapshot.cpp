@@ -8,11 +8,6 @@
 namespace nsim {
 namespace {
 
-// a W pivot below this times the largest diagonal entry counts as singular (redundant rows),
-// and the matrix is then regularized by the same factor (as ConstraintSolverConfig's defaults)
-constexpr double kSingularPivotRatio = 1e-12;
-constexpr double kRegularization = 1e-10;
-
 // N_a Y: the 3 x 3 block of the rows of Y (3n x 3) gathered at a point's nodes and weights
 Eigen::Matrix3d GatherRows(const int* nodes, const double* weights, int count,
                            const Eigen::Matrix<double, Eigen::Dynamic, 3>& Y) {
@@ -38,17 +33,15 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
   std::vector<int> set_point_of;
   terms_.clear();
   rows_.clear();
-  any_unilateral_ = false;
+  groups_ = set.groups();
+  config_ = solver.config();
+  config_.method = set.all_bilateral() ? ConstraintMethod::kDirect : ConstraintMethod::kActiveSet;
   std::vector<char> row_unilateral(set.num_rows(), 0);
-  for (int g = 0; g < set.num_groups(); ++g) {
-    const ConstraintGroup& group = set.group(g);
+  for (const ConstraintGroup& group : groups_) {
     if (group.law == ConstraintLaw::kFriction) {
       throw InputError("constraint snapshot: Coulomb friction groups are not supported");
     }
-    if (group.law == ConstraintLaw::kUnilateral) {
-      for (int i = 0; i < group.num_rows; ++i) row_unilateral[group.first_row + i] = 1;
-      any_unilateral_ = true;
-    }
+    if (group.law == ConstraintLaw::kUnilateral) row_unilateral[group.first_row] = 1;
   }
   for (int i = 0; i < set.num_rows(); ++i) {
     const ConstraintRow& r = set.row(i);
@@ -56,7 +49,6 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
     row.first_term = static_cast<int>(terms_.size());
     row.num_terms = r.num_terms;
     row.target = r.target;
-    row.unilateral = row_unilateral[i] != 0;
     for (int t = r.first_term; t < r.first_term + r.num_terms; ++t) {
       const ConstraintTerm& term = set.term(t);
       const ConstraintPoint& point = set.point(term.point);
@@ -66,7 +58,7 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
         captured.p_kinematic = point.p_end;
         captured.moving = moves_with_needle[term.point] != 0;
         captured.p_N = X_NW * point.p_end;
-        if (captured.moving && !row.unilateral) row.turns = true;
+        if (captured.moving && !row_unilateral[i]) row.turns = true;
       } else {
         if (point.body != body) {
           throw InputError(Str("constraint snapshot: row ", i, " uses body ", point.body,
@@ -118,13 +110,11 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
   }
 }
 
-SnapshotSolveReport ConstraintSnapshot::Solve(const Eigen::Isometry3d& X_WN_new,
-                                              SnapshotWorkspace& ws,
-                                              std::vector<Eigen::Vector3d>* probe_positions) const {
+ConstraintSolveReport ConstraintSnapshot::Solve(
+    const Eigen::Isometry3d& X_WN_new, SnapshotWorkspace& ws,
+    std::vector<Eigen::Vector3d>* probe_positions) const {
   const int m = num_rows();
   const int B = num_body_points_;
-  SnapshotSolveReport report;
-  report.num_rows = m;
   const Eigen::Matrix3d R_rel = X_WN_new.linear() * X_WN_.linear().transpose();
 
   // rows at the perturbed pose: compliance rows H (rows x 3B) and free values delta
@@ -147,68 +137,14 @@ SnapshotSolveReport ConstraintSnapshot::Solve(const Eigen::Isometry3d& X_WN_new,
   }
   ws.HG.noalias() = ws.H * G_;
   ws.W.noalias() = ws.HG * ws.H.transpose();
-
-  // active set: bilateral rows always, unilateral rows while they push (lambda >= 0)
-  ws.in_active.assign(m, 1);
-  if (any_unilateral_) {
-    for (int i = 0; i < m; ++i)
-      if (rows_[i].unilateral && ws.delta[i] >= 0.0) ws.in_active[i] = 0;
-  }
-  ws.lambda.setZero(m);
-  const int max_iterations = any_unilateral_ ? 2 * m + 2 : 1;
-  for (int it = 0; it < max_iterations; ++it) {
-    ws.active.clear();
-    for (int i = 0; i < m; ++i)
-      if (ws.in_active[i]) ws.active.push_back(i);
-    const int k = static_cast<int>(ws.active.size());
-    ws.lambda.setZero(m);
-    if (k > 0) {
-      ws.W_active.resize(k, k);
-      ws.rhs.resize(k);
-      for (int a = 0; a < k; ++a) {
-        ws.rhs[a] = -ws.delta[ws.active[a]];
-        for (int b = 0; b < k; ++b) ws.W_active(a, b) = ws.W(ws.active[a], ws.active[b]);
-      }
-      ws.ldlt.compute(ws.W_active);
-      const double max_diag = ws.W_active.diagonal().cwiseAbs().maxCoeff();
-      const double min_pivot = ws.ldlt.vectorD().cwiseAbs().minCoeff();
-      if (!(min_pivot > kSingularPivotRatio * max_diag)) {
-        ws.W_active.diagonal().array() += kRegularization * max_diag;
-        ws.ldlt.compute(ws.W_active);
-        report.regularized = true;
-      }
-      const Eigen::VectorXd solution = ws.ldlt.solve(ws.rhs);
-      for (int a = 0; a < k; ++a) ws.lambda[ws.active[a]] = solution[a];
-    }
-    if (!any_unilateral_) break;
-    report.active_set_iterations = it + 1;
-    // switch rows whose law is violated: pulling contacts leave, penetrating ones enter
-    bool changed = false;
-    const Eigen::VectorXd r = ws.delta + ws.W * ws.lambda;
-    for (int i = 0; i < m; ++i) {
-      if (!rows_[i].unilateral) continue;
-      if (ws.in_active[i] && ws.lambda[i] < 0.0) {
-        ws.in_active[i] = 0;
-        changed = true;
-      } else if (!ws.in_active[i] && r[i] < -1e-12) {
-        ws.in_active[i] = 1;
-        changed = true;
-      }
-    }
-    if (!changed) break;
-    if (it + 1 == max_iterations) report.converged = false;
-  }
-  const Eigen::VectorXd r = ws.delta + ws.W * ws.lambda;
-  for (int i = 0; i < m; ++i) {
-    const double violation = rows_[i].unilateral ? std::max(0.0, -r[i]) : std::abs(r[i]);
-    report.max_violation = std::max(report.max_violation, violation);
-  }
+  const ConstraintSolveReport report =
+      SolveConstraintLaws(ws.W, ws.delta, groups_, config_, ws.solver, ws.lambda);
 
   // probes: x(q) = x_free(q) + P H^T lambda
-  const Eigen::VectorXd force = ws.H.transpose() * ws.lambda;  // 3B (N)
+  ws.force.noalias() = ws.H.transpose() * ws.lambda;  // 3B (N)
   probe_positions->resize(probe_free_.size());
   for (int q = 0; q < num_probes(); ++q) {
-    (*probe_positions)[q] = probe_free_[q] + P_.middleRows<3>(3 * q) * force;
+    (*probe_positions)[q] = probe_free_[q] + P_.middleRows<3>(3 * q) * ws.force;
   }
   return report;
 }

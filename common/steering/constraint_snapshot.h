@@ -16,10 +16,11 @@
 // the result equals a full re-simulation of the step with the perturbed needle (same free motion,
 // same W); for rotations too, when the full step would turn its rows by the same rotation.
 //
-// Laws: bilateral groups are solved directly; unilateral (contact) rows by an active set.
-// Coulomb friction groups are not supported (Capture throws): the inverse model has none.
+// The multipliers come from the constraint solver's SolveConstraintLaws (constraint_solver.h)
+// with the captured solver's settings: bilateral groups alone by the direct LDLT solve (as the
+// step itself), with unilateral (contact) or axial friction rows by the active set. Coulomb
+// friction groups are not supported (Capture throws): the inverse model has none.
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <vector>
@@ -35,15 +36,6 @@ struct SnapshotProbe {
   std::vector<double> weights;
 };
 
-/// Outcome of one snapshot solve.
-struct SnapshotSolveReport {
-  int num_rows = 0;
-  int active_set_iterations = 0;  ///< 0 when every row is bilateral
-  bool converged = true;          ///< the active set settled
-  bool regularized = false;       ///< W was singular and regularized (redundant rows)
-  double max_violation = 0.0;     ///< largest law violation of the end-of-step rows (m)
-};
-
 /// Scratch space of Solve, so that a const snapshot can be solved without allocating state in
 /// it (one workspace per thread).
 struct SnapshotWorkspace {
@@ -52,11 +44,8 @@ struct SnapshotWorkspace {
   Eigen::MatrixXd W;        // rows x rows
   Eigen::VectorXd delta;    // rows
   Eigen::VectorXd lambda;   // rows
-  Eigen::MatrixXd W_active;
-  Eigen::VectorXd rhs;
-  std::vector<int> active;
-  std::vector<char> in_active;
-  Eigen::LDLT<Eigen::MatrixXd> ldlt;
+  Eigen::VectorXd force;    // 3B
+  ConstraintWorkspace solver;
 };
 
 class ConstraintSnapshot {
@@ -74,8 +63,9 @@ class ConstraintSnapshot {
 
   /// Solves the captured step with the needle at X_WN_new (end of step) and writes the probes'
   /// corrected positions (m, world), one per probe, and the multipliers (N) into `workspace`.
-  SnapshotSolveReport Solve(const Eigen::Isometry3d& X_WN_new, SnapshotWorkspace& workspace,
-                            std::vector<Eigen::Vector3d>* probe_positions) const;
+  /// The report says whether the solve converged (see constraint_solver.h).
+  ConstraintSolveReport Solve(const Eigen::Isometry3d& X_WN_new, SnapshotWorkspace& workspace,
+                              std::vector<Eigen::Vector3d>* probe_positions) const;
 
   int num_rows() const { return static_cast<int>(rows_.size()); }
   int num_body_points() const { return num_body_points_; }
@@ -96,19 +86,19 @@ class ConstraintSnapshot {
   struct Row {
     int first_term = 0, num_terms = 0;
     double target = 0.0;
-    bool unilateral = false;
     bool turns = false;  // directions turn with the needle
   };
 
   std::vector<Term> terms_;
   std::vector<Row> rows_;
+  std::vector<ConstraintGroup> groups_;  // the set's laws
+  ConstraintSolverConfig config_;        // the captured solver's, direct or the active set
   int num_body_points_ = 0;
   std::vector<Eigen::Vector3d> free_;  // free positions of the body points (m)
   Eigen::MatrixXd G_;                  // 3B x 3B point blocks (m/N)
   Eigen::MatrixXd P_;                  // 3 #probes x 3B: N_q C N_a^T (m/N)
   std::vector<Eigen::Vector3d> probe_free_;
   Eigen::Isometry3d X_WN_ = Eigen::Isometry3d::Identity();
-  bool any_unilateral_ = false;
 };
 
 }  // namespace nsim

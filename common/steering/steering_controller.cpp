@@ -81,6 +81,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     X_WF = CalcFlangePose(input.q);
   }
   out.model = sim_->Step(input.p_WM, X_WF);
+  out.num_unconverged_solves = out.model.solve.converged ? 0 : 1;
   X_WN_step_ = sim_->X_WN();
   const auto t1 = Clock::now();
 
@@ -111,6 +112,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   // the needle cannot remove inside the tissue stalls the insertion at an intermediate point
   // (the unperturbed frozen-step solve, done once: it also gives e and the reported state)
   const SteeringEvaluation now = sim_->EvaluateAt(X_WF, workspace_);
+  out.num_unconverged_solves += now.solve.converged ? 0 : 1;
   {
     const int last = static_cast<int>(now.p_WPath.size()) - 1;
     auto passed = [&](int i) {
@@ -132,16 +134,22 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   std::vector<Eigen::VectorXd> samples;
   samples.reserve(2 * n);
   Eigen::VectorXd steps(n);
+  auto evaluate = [&](const Eigen::Isometry3d& X) {
+    const SteeringEvaluation eval = sim_->EvaluateAt(X, workspace_);
+    out.num_unconverged_solves += eval.solve.converged ? 0 : 1;
+    return CalcObjectives(eval, out.phase);
+  };
   if (control_.dof == SteeringDof::kCartesian6) {
     steps = control_.pose_steps;
     for (const Eigen::Isometry3d& X :
          MakePosePerturbations(X_WF, control_.pose_steps, control_.law.frame))
-      samples.push_back(EvaluateObjectives(X, out.phase));
+      samples.push_back(evaluate(X));
   } else {
     steps = control_.joint_steps;
     for (const Vector7d& q : MakeJointPerturbations(input.q, control_.joint_steps))
-      samples.push_back(EvaluateObjectives(CalcFlangePose(q), out.phase));
+      samples.push_back(evaluate(CalcFlangePose(q)));
   }
+  const bool converged = out.num_unconverged_solves == 0;
   out.num_perturbations = static_cast<int>(samples.size());
   const FiniteDifferenceStatus status = AssembleCentralDifferenceJacobian(samples, steps, &out.J);
   out.e = CalcObjectives(now, out.phase);
@@ -179,7 +187,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     }
     const CartesianControlOutput law =
         CalcCartesianTarget(base, out.J, out.e_expected, k, control_.law);
-    out.valid = law.valid && status.all_finite;
+    out.valid = law.valid && status.all_finite && converged;
     out.X_WE_target = out.valid ? law.X_WE_target : X_WF;
     out.step_limited = law.step_limited;
     out.q_target = input.q;
@@ -191,7 +199,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
       out.e_expected += out.J * motion;
     }
     const JointControlOutput law = CalcJointTarget(base, out.J, out.e_expected, k, control_.law);
-    out.valid = law.valid && status.all_finite;
+    out.valid = law.valid && status.all_finite && converged;
     Vector7d q_target = law.q_target;
     if (out.valid && control_.null_space_gain > 0) {
       out.null_space_step = CalcNullSpaceStep(out.J, input.q);

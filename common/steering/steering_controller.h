@@ -56,7 +56,9 @@ struct SteeringTimings {
 
 /// Result of one control step.
 struct SteeringOutput {
-  bool valid = false;  ///< false: non-finite objectives or Jacobian; hold the robot
+  /// false: non-finite objectives or Jacobian, or a constraint solve of the step (the model
+  /// step, the frozen-step solves of e and of the Jacobian) did not converge; hold the robot
+  bool valid = false;
   InsertionPhase phase = InsertionPhase::kBeforeSkin;
   int path_index = 0;        ///< current path target
   bool reached_end = false;  ///< the last path target is the current one
@@ -73,6 +75,7 @@ struct SteeringOutput {
   int num_perturbations = 0;
   /// kJoint7: the joint-limit avoidance step added in the Jacobian's null space (rad)
   Vector7d null_space_step = Vector7d::Zero();
+  int num_unconverged_solves = 0;  ///< constraint solves of this step that did not converge
   SteeringStepReport model;
   SteeringTimings timings;
 };

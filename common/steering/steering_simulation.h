@@ -56,7 +56,7 @@ struct SteeringEvaluation {
   Eigen::Isometry3d X_WN = Eigen::Isometry3d::Identity();  ///< needle pose (base frame N)
   Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();        ///< needle tip (m)
   std::vector<Eigen::Vector3d> p_WPath;                    ///< every path target (m)
-  SnapshotSolveReport solve;
+  ConstraintSolveReport solve;
 };
 
 /// How CatchUp drives the needle in.

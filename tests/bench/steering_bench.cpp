@@ -77,12 +77,49 @@ void RunControlStep(benchmark::State& state, SteeringDof dof) {
   state.counters["rows"] = rows;
 }
 
+// one frozen-step solve of the Jacobian (SteeringSimulation::EvaluateAt at a perturbed flange
+// pose, alternating between +-1 mm along x), with the needle ~3 cm in the liver (bilateral rows
+// only) or pressing on its surface before the puncture (a unilateral contact: the active set)
+void RunSnapshotSolve(benchmark::State& state, bool contact) {
+  Setup s;
+  SteeringSimulation sim(s.model, s.path, s.mesh, s.X_WF0);
+  int step = 0;
+  if (contact) {
+    while (sim.liver_coupling().phase != TissuePhase::kContact && step < kInsertionSteps)
+      sim.Step(s.model.markers_W, s.Pose(++step));
+    if (sim.liver_coupling().phase != TissuePhase::kContact) {
+      state.SkipWithError("the needle never pressed on the liver");
+      return;
+    }
+  } else {
+    while (step < kInsertionSteps) sim.Step(s.model.markers_W, s.Pose(++step));
+  }
+  Eigen::Isometry3d X[2] = {s.Pose(step), s.Pose(step)};
+  X[0].translation().x() += 1e-3;
+  X[1].translation().x() -= 1e-3;
+  SnapshotWorkspace ws;
+  SteeringEvaluation eval;
+  int k = 0;
+  for (auto _ : state) {
+    eval = sim.EvaluateAt(X[k], ws);
+    k = 1 - k;
+    benchmark::DoNotOptimize(eval.p_WPath.data());
+  }
+  state.counters["rows"] = eval.solve.num_rows;
+  state.counters["converged"] = eval.solve.converged;
+  state.counters["iterations"] = eval.solve.iterations;
+}
+void BM_SnapshotSolve(benchmark::State& state) { RunSnapshotSolve(state, false); }
+void BM_SnapshotSolveContact(benchmark::State& state) { RunSnapshotSolve(state, true); }
+
 void BM_ControlStep12(benchmark::State& state) { RunControlStep(state, SteeringDof::kCartesian6); }
 void BM_ControlStep14(benchmark::State& state) { RunControlStep(state, SteeringDof::kJoint7); }
 
 BENCHMARK(BM_PlainStep)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep12)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep14)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_SnapshotSolve)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SnapshotSolveContact)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace nsim

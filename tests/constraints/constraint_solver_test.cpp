@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "common/constraints/dense_linear_body.h"
 #include "common/core/error.h"
@@ -346,6 +347,68 @@ TEST(ConstraintSolverTest, RejectsDirectMethodWithContactsAndUngroupedRows) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("1 rows are ungrouped"), std::string::npos) << e.what();
   }
+}
+
+// a solve stopped by its cap, or with a non-finite lambda, says so (converged = false) with the
+// residual and violation of where it stopped
+TEST(ConstraintSolverTest, CapsAndNonFiniteResultsAreReportedAsNotConverged) {
+  // PGS: coupled contacts need more than one sweep
+  DenseLinearBodyConfig c =
+      MakeChainConfig(4, 0.1, 0.03, 80.0, 0.02, Eigen::Vector3d::Zero(), kGravity);
+  DenseLinearBody chain(c);
+  chain.SolveFreeMotion();
+  ConstraintSet contacts;
+  const int b = contacts.AddBody(chain);
+  const int floor = contacts.AddKinematicPoint(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  for (int i = 0; i < chain.num_nodes(); ++i)
+    contacts.AddContact(contacts.AddNodePoint(b, i), floor, Eigen::Vector3d::UnitZ());
+  ConstraintSolverConfig one_sweep;
+  one_sweep.pgs_max_iterations = 1;
+  ConstraintSolver pgs(one_sweep);
+  pgs.Assemble(contacts);
+  const ConstraintSolveReport rp = pgs.SolveMultipliers(contacts);
+  EXPECT_EQ(rp.method, ConstraintMethod::kPgs);
+  EXPECT_FALSE(rp.converged);
+  EXPECT_EQ(rp.iterations, 1);
+  EXPECT_GT(rp.residual, one_sweep.pgs_tolerance);
+
+  // active set: axial friction that slips needs a second solve (stick, then at the bound)
+  DenseLinearBody particle(MakeParticleConfig(Eigen::Vector3d::Zero(), 0.01, 0.02, kGravity));
+  particle.SolveFreeMotion();
+  ConstraintSet needle;
+  const int pb = needle.AddBody(particle);
+  const int p = needle.AddNodePoint(pb, 0);
+  const int q =
+      needle.AddKinematicPoint(Eigen::Vector3d(0, 0.001, 0), Eigen::Vector3d(0.01, 0.001, 0));
+  Eigen::Matrix<double, 3, 2> lateral;
+  lateral << Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ();
+  const int lateral_group = needle.AddBilateral(p, q, lateral);
+  needle.AddAxialFriction(p, q, Eigen::Vector3d::UnitX(), lateral_group, 0.2, 0.0);
+  ConstraintSolverConfig one_solve;
+  one_solve.active_set_max_iterations = 1;
+  ConstraintSolver capped(one_solve), full;
+  capped.Assemble(needle);
+  full.Assemble(needle);
+  const ConstraintSolveReport rc = capped.SolveMultipliers(needle);
+  const ConstraintSolveReport rf = full.SolveMultipliers(needle);
+  EXPECT_EQ(rc.method, ConstraintMethod::kActiveSet);
+  EXPECT_FALSE(rc.converged);
+  EXPECT_EQ(rc.iterations, 1);
+  EXPECT_GT(rc.residual, one_solve.position_tolerance);  // the stick force exceeds the bound
+  EXPECT_TRUE(rf.converged);
+  EXPECT_EQ(rf.iterations, 2);
+  EXPECT_EQ(rf.num_slipping, 1);
+
+  // a non-finite problem
+  ConstraintGroup bilateral;
+  bilateral.num_rows = 1;
+  ConstraintWorkspace ws;
+  Eigen::VectorXd lambda;
+  const ConstraintSolveReport rn =
+      SolveConstraintLaws(Eigen::MatrixXd::Identity(1, 1),
+                          Eigen::VectorXd::Constant(1, std::numeric_limits<double>::quiet_NaN()),
+                          {bilateral}, ConstraintSolverConfig(), ws, lambda);
+  EXPECT_FALSE(rn.converged);
 }
 
 // perturbation re-solves (inverse simulation): moving a kinematic point and recomputing delta

@@ -109,6 +109,7 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
     input.q = q;
     const SteeringOutput out = controller.Update(input);
     EXPECT_TRUE(out.valid) << "step " << i;
+    EXPECT_EQ(out.num_unconverged_solves, 0) << "step " << i;
     q = out.q_target;
     X_WE = out.X_WE_target;
     if (dof == SteeringDof::kJoint7) {

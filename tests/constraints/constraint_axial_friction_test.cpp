@@ -1,7 +1,10 @@
-#include "common/needle/needle_constraint_solver.h"
+// The needle's axial friction law (ConstraintLaw::kAxialFriction) in the constraint solver.
 
 #include <gtest/gtest.h>
 
+#include <memory>
+
+#include "common/constraints/constraint_solver.h"
 #include "common/constraints/dense_linear_body.h"
 
 namespace nsim {
@@ -17,11 +20,12 @@ constexpr double kForceTol = 1e-9;  // N, relative to forces of O(1 N)
 struct Problem {
   std::unique_ptr<DenseLinearBody> body;
   ConstraintSet set;
-  std::vector<AxialFrictionRow> friction;
   double c = 0.0;
 
-  // the needle point moves by s along x over the step; the line is offset by b along y
-  Problem(double s, double b, double mu, double stiction) {
+  // the needle point moves by s along x over the step; the line is offset by b along y; the
+  // axial row has the friction law (rows 0, 1 its normal force), or without `friction` is a
+  // plain bilateral row
+  Problem(double s, double b, double mu, double stiction, bool friction = true) {
     DenseLinearBodyConfig config;
     config.masses = Eigen::VectorXd::Constant(1, kMass);
     config.rest_positions = Eigen::Matrix3Xd::Zero(3, 1);
@@ -35,23 +39,20 @@ struct Problem {
     const int q = set.AddKinematicPoint(Eigen::Vector3d(0, b, 0), Eigen::Vector3d(s, b, 0));
     Eigen::Matrix<double, 3, 2> lateral;
     lateral << Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ();
-    set.AddBilateral(p, q, lateral);
-    set.AddBilateral(p, q, Eigen::Vector3d::UnitX());  // slip over the step, target 0
-    AxialFrictionRow fr;
-    fr.row = 2;
-    fr.lateral_rows[0] = 0;
-    fr.lateral_rows[1] = 1;
-    fr.mu = mu;
-    fr.stiction = stiction;
-    friction.push_back(fr);
+    const int lateral_group = set.AddBilateral(p, q, lateral);
+    // slip over the step, target 0
+    if (friction)
+      set.AddAxialFriction(p, q, Eigen::Vector3d::UnitX(), lateral_group, mu, stiction);
+    else
+      set.AddBilateral(p, q, Eigen::Vector3d::UnitX());
   }
 };
 
-TEST(NeedleConstraintSolverTest, SticksInsideTheCone) {
+TEST(ConstraintAxialFrictionTest, SticksInsideTheCone) {
   const double s = 1e-4, b = 1e-3, mu = 0.5;  // s < mu b: stick
   Problem pb(s, b, mu, 0.0);
-  NeedleConstraintSolver solver;
-  const NeedleSolveReport r = solver.Solve(pb.set, pb.friction);
+  ConstraintSolver solver;
+  const ConstraintSolveReport r = solver.Solve(pb.set);
   EXPECT_TRUE(r.converged);
   EXPECT_EQ(r.num_slipping, 0);
   EXPECT_NEAR(solver.lambda()[0], b / pb.c, kForceTol);
@@ -59,11 +60,11 @@ TEST(NeedleConstraintSolverTest, SticksInsideTheCone) {
   EXPECT_LT((pb.body->positions().col(0) - Eigen::Vector3d(s, b, 0)).norm(), 1e-12);
 }
 
-TEST(NeedleConstraintSolverTest, SlipsAtMuTimesTheLateralForce) {
+TEST(ConstraintAxialFrictionTest, SlipsAtMuTimesTheLateralForce) {
   const double s = 1e-3, b = 1e-3, mu = 0.5;  // s > mu b: slip
   Problem pb(s, b, mu, 0.0);
-  NeedleConstraintSolver solver;
-  const NeedleSolveReport r = solver.Solve(pb.set, pb.friction);
+  ConstraintSolver solver;
+  const ConstraintSolveReport r = solver.Solve(pb.set);
   EXPECT_TRUE(r.converged);
   EXPECT_EQ(r.num_slipping, 1);
   const double normal = b / pb.c;
@@ -74,31 +75,32 @@ TEST(NeedleConstraintSolverTest, SlipsAtMuTimesTheLateralForce) {
   EXPECT_LT(pb.body->positions()(0, 0), s);
   // backwards motion: the force flips
   Problem back(-s, b, mu, 0.0);
-  NeedleConstraintSolver solver2;
-  solver2.Solve(back.set, back.friction);
+  ConstraintSolver solver2;
+  solver2.Solve(back.set);
   EXPECT_NEAR(solver2.lambda()[2], -mu * normal, kForceTol);
 }
 
-TEST(NeedleConstraintSolverTest, StictionAddsToTheBound) {
+TEST(ConstraintAxialFrictionTest, StictionAddsToTheBound) {
   // stick would need s / c = 1.25 N > mu N + f0 = 0.525 N: slips at the bound
   const double s = 1e-2, b = 1e-3, mu = 0.2, f0 = 0.5;
   Problem pb(s, b, mu, f0);
-  NeedleConstraintSolver solver;
-  solver.Solve(pb.set, pb.friction);
+  ConstraintSolver solver;
+  solver.Solve(pb.set);
   EXPECT_NEAR(solver.lambda()[2], mu * b / pb.c + f0, kForceTol);
   // no lateral offset and no stiction: no friction at all
   Problem free(s, 0.0, mu, 0.0);
-  NeedleConstraintSolver solver2;
-  solver2.Solve(free.set, free.friction);
+  ConstraintSolver solver2;
+  solver2.Solve(free.set);
   EXPECT_NEAR(solver2.lambda()[2], 0.0, kForceTol);
   EXPECT_NEAR(free.body->positions()(0, 0), 0.0, 1e-12);
 }
 
-TEST(NeedleConstraintSolverTest, WithoutFrictionRowsUsesTheGenericSolver) {
-  Problem pb(1e-4, 1e-3, 0.5, 0.0);
-  NeedleConstraintSolver solver;
-  const NeedleSolveReport r = solver.Solve(pb.set, {});
-  EXPECT_TRUE(r.used_generic);
+TEST(ConstraintAxialFrictionTest, WithoutFrictionRowsUsesTheGenericSolver) {
+  Problem pb(1e-4, 1e-3, 0.5, 0.0, /*friction=*/false);
+  ConstraintSolver solver;
+  const ConstraintSolveReport r = solver.Solve(pb.set);
+  // bilateral rows only: the direct solve
+  EXPECT_EQ(r.method, ConstraintMethod::kDirect);
   EXPECT_NEAR(solver.lambda()[2], 1e-4 / pb.c, kForceTol);  // plain bilateral: sticks
 }
 

@@ -1,0 +1,159 @@
+// The frozen-step solve (ConstraintSnapshot) with every law it takes: a held point (bilateral),
+// needle rows that turn with the needle (lateral bilateral rows and axial friction bounded by
+// the lateral force) and a contact on the needle tip (unilateral, its normal fixed). At the
+// captured pose it gives the multipliers and corrected positions of the step's own solve; at a
+// perturbed pose those of a full solve of the same step with the needle moved.
+
+#include "common/steering/constraint_snapshot.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "common/constraints/constraint_solver.h"
+#include "common/constraints/dense_linear_body.h"
+#include "common/core/error.h"
+#include "tests/steering/constraint_test_problem.h"
+
+namespace nsim::constraint_test {
+namespace {
+
+// the rows of a step whose needle was at X_capture when the rows were made (start positions
+// and targets) and is at X_WN at the step end (end positions and the needle rows' directions):
+// what a ConstraintSnapshot captured at X_capture solves at X_WN. Needle points are given in
+// the needle frame.
+struct Step {
+  DenseLinearBody body;
+  ConstraintSet set;
+  std::vector<char> moves_with_needle;
+
+  Step() : body(ChainConfig()) {
+    body.external_forces().col(3) = Eigen::Vector3d(0.0, -0.05, -0.1);
+    body.SolveFreeMotion();
+  }
+
+  void Build(const Eigen::Isometry3d& X_WN, const Eigen::Isometry3d& X_capture) {
+    set.Clear();
+    const int b = set.AddBody(body);
+    const Eigen::Vector3d x0 = body.start_positions().col(0);
+    set.AddBilateral(set.AddNodePoint(b, 0, 1), set.AddKinematicPoint(x0, x0),
+                     Eigen::Matrix3d::Identity());
+    const int first_needle_point = set.num_points();
+    Eigen::Matrix<double, 3, 2> lateral;
+    lateral << X_WN.linear() * Eigen::Vector3d::UnitY(), X_WN.linear() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d axis = X_WN.linear() * Eigen::Vector3d::UnitX();
+    const Eigen::Vector3d axis_capture = X_capture.linear() * Eigen::Vector3d::UnitX();
+    // the needle slides by 0.1 mm (points 1, 3: friction holds) or 2 mm (point 2: slips)
+    const double slide[4] = {0.0, 0.0001, 0.002, 0.0001};
+    for (int k = 1; k <= 3; ++k) {
+      const int pt =
+          set.AddBodyPoint(b, std::vector<int>{k, k + 1}, std::vector<double>{0.7, 0.3}, 10 + k);
+      const Eigen::Vector3d p_N(0.01 * k + 0.003, 0.0004 * k, -0.0002);
+      const Eigen::Vector3d start = X_capture * (p_N - Eigen::Vector3d(slide[k], 0.0, 0.0));
+      const int pn = set.AddKinematicPoint(start, X_WN * p_N);
+      const int lateral_group = set.AddBilateral(pt, pn, lateral);
+      // target: the axial offset at the step start, along the captured axis
+      const double target = axis_capture.dot(set.CalcStartPosition(pt) - start);
+      set.AddAxialFriction(pt, pn, axis, lateral_group, 0.4, 0.001, axis * target);
+    }
+    const Eigen::Vector3d tip = X_WN * Eigen::Vector3d(0.05, 0.0, 0.0);
+    set.AddContact(set.AddNodePoint(b, 5, 20), set.AddKinematicPoint(tip, tip),
+                   Eigen::Vector3d(0.0, 1.0, 0.5));
+    moves_with_needle.assign(set.num_points(), 0);
+    for (int p = first_needle_point; p < set.num_points(); ++p)
+      moves_with_needle[p] = set.point(p).body < 0;
+  }
+};
+
+// corrected positions of the probes after a full solve of `step`
+std::vector<Eigen::Vector3d> SolveFully(Step& step, ConstraintSolver& solver,
+                                        ConstraintSolveReport* report) {
+  solver.Assemble(step.set);
+  *report = solver.SolveMultipliers(step.set);
+  Eigen::Matrix3Xd x = step.body.free_positions();
+  solver.ApplyCorrections(step.set);
+  x += solver.corrections()[0];
+  std::vector<Eigen::Vector3d> out;
+  for (const SnapshotProbe& probe : Probes()) {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (size_t k = 0; k < probe.nodes.size(); ++k) p += probe.weights[k] * x.col(probe.nodes[k]);
+    out.push_back(p);
+  }
+  return out;
+}
+
+TEST(ConstraintSnapshotTest, CapturedPoseGivesTheStepSolve) {
+  Step step;
+  step.Build(CapturedPose(), CapturedPose());
+  ConstraintSolver solver;
+  solver.Assemble(step.set);
+  const ConstraintSolveReport full = solver.SolveMultipliers(step.set);
+  ASSERT_EQ(full.method, ConstraintMethod::kActiveSet);
+  ASSERT_TRUE(full.converged);
+  ConstraintSnapshot snapshot;
+  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  SnapshotWorkspace ws;
+  std::vector<Eigen::Vector3d> probes;
+  const ConstraintSolveReport r = snapshot.Solve(CapturedPose(), ws, &probes);
+  EXPECT_EQ(r.method, ConstraintMethod::kActiveSet);
+  EXPECT_TRUE(r.converged);
+  // the problem exercises every law: friction holds two points, one slips, the contact pushes
+  EXPECT_EQ(r.num_slipping, 1);
+  EXPECT_EQ(r.num_separated, 0);
+  EXPECT_EQ(r.num_slipping, full.num_slipping);
+  const double scale = solver.lambda().cwiseAbs().maxCoeff();
+  EXPECT_LE((ws.lambda - solver.lambda()).cwiseAbs().maxCoeff(), 1e-10 * scale);
+  ConstraintSolveReport again;
+  Step reference;
+  reference.Build(CapturedPose(), CapturedPose());
+  ConstraintSolver reference_solver;
+  const std::vector<Eigen::Vector3d> expected = SolveFully(reference, reference_solver, &again);
+  for (size_t q = 0; q < probes.size(); ++q)
+    EXPECT_LT((probes[q] - expected[q]).norm(), 1e-12) << "probe " << q;
+}
+
+TEST(ConstraintSnapshotTest, PerturbedPoseGivesTheFullSolveWithTheNeedleMoved) {
+  Step step;
+  step.Build(CapturedPose(), CapturedPose());
+  ConstraintSolver solver;
+  solver.Assemble(step.set);
+  solver.SolveMultipliers(step.set);
+  ConstraintSnapshot snapshot;
+  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  const Eigen::Isometry3d X_new = PerturbedPose();
+  SnapshotWorkspace ws;
+  std::vector<Eigen::Vector3d> probes;
+  const ConstraintSolveReport r = snapshot.Solve(X_new, ws, &probes);
+  EXPECT_TRUE(r.converged);
+
+  Step moved;
+  moved.Build(X_new, CapturedPose());
+  ConstraintSolver full_solver;
+  ConstraintSolveReport full;
+  const std::vector<Eigen::Vector3d> expected = SolveFully(moved, full_solver, &full);
+  ASSERT_TRUE(full.converged);
+  EXPECT_EQ(r.num_slipping, full.num_slipping);
+  const double scale = full_solver.lambda().cwiseAbs().maxCoeff();
+  EXPECT_LE((ws.lambda - full_solver.lambda()).cwiseAbs().maxCoeff(), 1e-10 * scale);
+  for (size_t q = 0; q < probes.size(); ++q)
+    EXPECT_LT((probes[q] - expected[q]).norm(), 1e-12) << "probe " << q;
+  // the perturbation changed the answer (the comparison is not trivial)
+  EXPECT_GT((ws.lambda - solver.lambda()).cwiseAbs().maxCoeff(), 1e-3 * scale);
+}
+
+TEST(ConstraintSnapshotTest, RejectsCoulombFrictionContacts) {
+  Step step;
+  step.set.Clear();
+  const int b = step.set.AddBody(step.body);
+  const int floor = step.set.AddKinematicPoint(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  step.set.AddFrictionContact(step.set.AddNodePoint(b, 0), floor, Eigen::Vector3d::UnitZ(), 0.3);
+  ConstraintSolver solver;
+  solver.Assemble(step.set);
+  ConstraintSnapshot snapshot;
+  EXPECT_THROW(snapshot.Capture(step.set, solver, 0, std::vector<char>(2, 0),
+                                Eigen::Isometry3d::Identity(), {}),
+               InputError);
+}
+
+}  // namespace
+}  // namespace nsim::constraint_test
