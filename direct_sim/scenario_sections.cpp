@@ -1,6 +1,7 @@
 #include "direct_sim/scenario_sections.h"
 
 #include "common/core/error.h"
+#include "common/fem/fem_solver.h"
 #include "common/mesh/gmsh_reader.h"
 #include "common/scenario/shared_scenario.h"
 
@@ -95,7 +96,7 @@ void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScen
   PatientSceneConfig& c = s->scene;
   node.Read("time_step", &c.time_step);
   node.Read("gravity", &c.gravity);
-  const int compliance = node.ReadChoice("constraint_compliance", {"rest", "last_factor"});
+  const int compliance = node.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) c.liver_rest_compliance = compliance == 0;
   const YamlReader liver = node.Child("liver");
   liver.CheckKeys(kFemKeys);

@@ -8,6 +8,7 @@
 #include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/core/yaml_reader.h"
+#include "common/fem/fem_solver.h"
 #include "common/scenario/shared_scenario.h"
 #include "common/scene/scene_config.h"
 
@@ -84,7 +85,7 @@ void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
                  "tip_constraint", "constraint_compliance"});
-  const int compliance = inv.ReadChoice("constraint_compliance", {"rest", "last_factor"});
+  const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
   std::filesystem::path mesh = inv.Child("mesh").AsString();
   if (mesh.is_relative()) mesh = std::filesystem::path(path).parent_path() / mesh;

@@ -590,4 +590,13 @@ const Eigen::SparseMatrix<double>& FemSolver::CalcSystemMatrix() {
   return impl_->matrix;
 }
 
+const std::vector<std::string>& ConstraintComplianceNames() {
+  static const std::vector<std::string> names = {"rest", "last_factor"};
+  return names;
+}
+
+FemInverse SelectConstraintCompliance(bool rest) {
+  return rest ? FemInverse::kRestFactor : FemInverse::kReferenceFactor;
+}
+
 }  // namespace nsim

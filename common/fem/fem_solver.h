@@ -78,6 +78,8 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "common/fem/fem_model.h"
 #include "common/fem/fem_state.h"
@@ -86,6 +88,14 @@ namespace nsim {
 
 /// Which operator FemSolver::ApplyInverse applies; see the header comment.
 enum class FemInverse { kCurrentSystem, kCachedFactor, kReferenceFactor, kRestFactor };
+
+/// The one compliance policy of the scenarios' constraint bodies (YAML
+/// patient.constraint_compliance for the patient's liver, inverse.constraint_compliance for the
+/// controller's model), named by what it selects: "rest" = kRestFactor (h^2 A_0^-1, constant),
+/// "last_factor" = kReferenceFactor (the last factorization). The choices, in that order:
+const std::vector<std::string>& ConstraintComplianceNames();
+/// The operator of a constraint body whose scenario chose rest (true) or last_factor (false).
+FemInverse SelectConstraintCompliance(bool rest);
 
 /// What the last free-motion solve did.
 struct FemStepStats {

@@ -148,7 +148,7 @@ PatientScene::PatientScene(const PatientSceneConfig& config, const TetMesh& live
   // changes)
   liver_body_ = std::make_unique<FemConstraintBody>(
       *liver_solver_, state_.liver,
-      config.liver_rest_compliance ? FemInverse::kRestFactor : FemInverse::kReferenceFactor);
+      SelectConstraintCompliance(config.liver_rest_compliance));
   skin_body_ = std::make_unique<FemConstraintBody>(*skin_solver_, state_.skin);
   if (state_.beam_needle)
     needle_body_ = std::make_unique<BeamNeedleBody>(*model_->beam_needle(), *state_.beam_needle);

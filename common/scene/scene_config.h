@@ -98,7 +98,8 @@ struct PatientSceneConfig {
   /// true = rest (FemInverse::kRestFactor: h^2 A_0^-1 from the liver solver's construction-time
   /// factor; constant, so the columns of persistent points are solved once), false =
   /// last_factor (FemInverse::kReferenceFactor: the liver's last factorization; the cached
-  /// columns are recomputed whenever the factor is refreshed). See common/fem/fem_solver.h.
+  /// columns are recomputed whenever the factor is refreshed). See SelectConstraintCompliance
+  /// in common/fem/fem_solver.h.
   bool liver_rest_compliance = true;
   SkinConfig skin;
 

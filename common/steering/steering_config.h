@@ -58,7 +58,7 @@ struct InverseModelConfig {
   /// the model's factor may be refreshed in the background), false = last_factor
   /// (FemInverse::kReferenceFactor: the liver's last factorization; with linear_solver direct,
   /// this step's exact system, every column solved again each step). See
-  /// common/fem/fem_solver.h.
+  /// SelectConstraintCompliance in common/fem/fem_solver.h.
   bool rest_compliance = false;
 
   /// Throws InputError "inverse.<key> must be ..., got ..." for the first invalid field.

@@ -54,7 +54,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   state_ = std::make_unique<FemState>(*model_);
   body_ = std::make_unique<FemConstraintBody>(
       *solver_, *state_,
-      config.rest_compliance ? FemInverse::kRestFactor : FemInverse::kReferenceFactor);
+      SelectConstraintCompliance(config.rest_compliance));
 
   // the needle-liver coupling, frictionless (see the file comment of steering_simulation.h)
   NeedleCouplingConfig coupling;
