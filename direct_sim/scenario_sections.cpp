@@ -3,6 +3,7 @@
 #include "common/core/error.h"
 #include "common/fem/fem_solver.h"
 #include "common/mesh/gmsh_reader.h"
+#include "common/scenario/box_reader.h"
 #include "common/scenario/shared_scenario.h"
 
 namespace nsim::direct_sections {
@@ -11,31 +12,6 @@ namespace {
 std::string Join(const std::string& dir, const std::string& path) {
   if (path.empty() || path[0] == '/' || dir.empty()) return path;
   return dir + "/" + path;
-}
-
-OrientedBox ReadBox(const YamlReader& node) {
-  node.CheckKeys({"center", "half_size", "rpy"});
-  OrientedBox box;
-  if (!node.Has("center")) node.Fail("center", "missing");
-  if (!node.Has("half_size")) node.Fail("half_size", "missing");
-  node.Read("center", &box.center);
-  node.Read("half_size", &box.half_size);
-  Eigen::Vector3d rpy = Eigen::Vector3d::Zero();
-  node.Read("rpy", &rpy);
-  box.R_WB = (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
-              Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
-              Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
-                 .toRotationMatrix();
-  return box;
-}
-
-std::vector<OrientedBox> ReadBoxes(const YamlReader& parent, const std::string& key) {
-  std::vector<OrientedBox> boxes;
-  if (!parent.Has(key)) return boxes;
-  const YamlReader list = parent.Child(key);
-  if (!list.IsSequence()) list.Fail("expected a list of boxes {center, half_size, rpy}");
-  for (size_t i = 0; i < list.size(); ++i) boxes.push_back(ReadBox(list.Element(i)));
-  return boxes;
 }
 
 // material, damping and solver keys of a tissue
@@ -110,9 +86,9 @@ void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScen
   skin.Read("pose", &c.skin.X_WS);
   skin.Read("attach_distance", &c.skin.attach_distance);
   node.Read("rib_contact_margin", &c.rib_contact_margin);
-  c.ribs = ReadBoxes(node, "ribs");
-  c.diaphragm = ReadBox(node.Child("diaphragm"));
-  c.anchors = ReadBoxes(node, "anchors");
+  c.ribs = ReadOrientedBoxes(node, "ribs");
+  c.diaphragm = ReadOrientedBox(node.Child("diaphragm"));
+  c.anchors = ReadOrientedBoxes(node, "anchors");
   // meshes last: the cheap key checks come first
   s->liver_mesh = ReadMesh(liver, base_dir, &s->liver_mesh_path);
   s->skin_mesh = ReadMesh(skin, base_dir, &s->skin_mesh_path);

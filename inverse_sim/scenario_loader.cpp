@@ -9,6 +9,7 @@
 #include "common/core/error.h"
 #include "common/core/yaml_reader.h"
 #include "common/fem/fem_solver.h"
+#include "common/scenario/box_reader.h"
 #include "common/scenario/shared_scenario.h"
 #include "common/scene/scene_config.h"
 
@@ -84,7 +85,7 @@ void CheckControllerBounds(const InverseScenario& s) {
 void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "constraint_compliance"});
+                 "tip_constraint", "constraint_compliance", "friction_coefficient", "anchors"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
   std::filesystem::path mesh = inv.Child("mesh").AsString();
@@ -95,6 +96,8 @@ void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario
   inv.Read("puncture_force", &s->loop.model.puncture_force);
   inv.Read("point_spacing", &s->loop.model.point_spacing);
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
+  inv.Read("friction_coefficient", &s->loop.model.friction_coefficient);
+  s->loop.model.anchors = ReadOrientedBoxes(inv, "anchors");
   ValidateAs([&] { s->loop.model.Validate(); }, path, "inverse.", "inverse.");
   ValidateAs([&] { CheckInverseBounds(*s); }, path, "", "");
 }

@@ -17,7 +17,7 @@
 #include "common/needle/beam_needle.h"
 #include "common/needle/needle_tissue.h"
 #include "common/needle/rigid_needle.h"
-#include "common/scene/box.h"
+#include "common/mesh/oriented_box.h"
 
 namespace nsim {
 

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "common/core/bounds.h"
 #include "common/core/error.h"
 #include "common/needle/needle_tissue.h"
 
@@ -50,6 +51,9 @@ void InverseModelConfig::Validate() const {
   needle.Validate("inverse.needle");
   CheckPositive(puncture_force, "inverse.puncture_force", " (N)");
   CheckPositive(point_spacing, "inverse.point_spacing", " (m)");
+  // Coulomb coefficients of needles in soft tissue are 0.05-0.5 (SOFA example: 0.1); 2 is absurd
+  CheckRange(friction_coefficient, 0.0, 2.0, "inverse.friction_coefficient", "");
+  for (size_t i = 0; i < anchors.size(); ++i) anchors[i].Validate(Str("inverse.anchors[", i, "]"));
   // a compliance built on the factor lags a background refresh (fem_config.h): unstable
   if (liver.background_refactor && !rest_compliance)
     throw InputError(

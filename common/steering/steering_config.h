@@ -12,6 +12,7 @@
 #include "common/control/objectives.h"
 #include "common/control/path_targets.h"
 #include "common/fem/fem_config.h"
+#include "common/mesh/oriented_box.h"
 #include "common/needle/rigid_needle.h"
 #include "common/robot/iiwa14.h"
 #include "common/robot/pose_math.h"
@@ -52,6 +53,15 @@ struct InverseModelConfig {
   double point_spacing = 0.013;
   /// Lateral tip constraint in the liver (common/needle, needle_tissue.h).
   bool tip_constraint = true;
+  /// Coulomb coefficient of the needle's axial friction in the model liver (-), >= 0 (YAML
+  /// inverse.friction_coefficient): the same law as the patient's needle (an axial friction row
+  /// per trajectory point, common/needle/needle_tissue.h), with the model's own normal forces.
+  /// 0: frictionless, every row bilateral or a contact.
+  double friction_coefficient = 0.0;
+  /// Regions of the model liver held fixed (YAML inverse.anchors, boxes in the world frame):
+  /// where the organ is attached, as the planning images show it. Empty: the model is held by
+  /// the markers alone. Every box must enclose a model node, and no marker may lie in one.
+  std::vector<OrientedBox> anchors;
   /// The compliance of the registration and needle constraints, YAML
   /// inverse.constraint_compliance: true = rest (FemInverse::kRestFactor: h^2 A_0^-1,
   /// constant, so the columns of the markers and of every laid needle point are solved once and

@@ -37,6 +37,30 @@ Eigen::Matrix3d FrameWithZ(const Eigen::Vector3d& z) {
   return R;
 }
 
+// the model's anchors: every node inside a box is fixed
+FemBoundary MakeModelBoundary(const InverseModelConfig& config, const TetMesh& mesh) {
+  FemBoundary boundary;
+  std::vector<int> per_box(config.anchors.size(), 0);
+  for (int i = 0; i < mesh.num_nodes(); ++i) {
+    bool fixed = false;
+    for (size_t a = 0; a < config.anchors.size(); ++a)
+      if (config.anchors[a].Contains(mesh.X.col(i))) {
+        ++per_box[a];
+        fixed = true;
+      }
+    if (fixed) boundary.fixed_nodes.push_back(i);
+  }
+  for (size_t a = 0; a < config.anchors.size(); ++a) {
+    if (per_box[a] == 0)
+      throw InputError(Str("inverse.anchors[", a, "] encloses no node of the model liver"));
+    for (size_t m = 0; m < config.markers_W.size(); ++m)
+      if (config.anchors[a].Contains(config.markers_W[m]))
+        throw InputError(Str("inverse.anchors[", a, "] contains marker ", m,
+                             ": a fixed marker cannot follow its measurements"));
+  }
+  return boundary;
+}
+
 }  // namespace
 
 SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
@@ -49,19 +73,19 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   }
   FemConfig fem = config.liver;
   fem.young_modulus = config.liver.young_modulus * config.young_modulus_factor;
-  model_ = std::make_unique<FemModel>(mesh_, fem);
+  model_ = std::make_unique<FemModel>(mesh_, fem, MakeModelBoundary(config, mesh_));
   solver_ = std::make_unique<FemSolver>(*model_);
   state_ = std::make_unique<FemState>(*model_);
   body_ = std::make_unique<FemConstraintBody>(
       *solver_, *state_,
       SelectConstraintCompliance(config.rest_compliance));
 
-  // the needle-liver coupling, frictionless (see the file comment of steering_simulation.h)
+  // the needle-liver coupling, with the model's axial friction (0: frictionless)
   NeedleCouplingConfig coupling;
   TissueCouplingConfig liver;
   liver.name = "liver";
   liver.puncture_force = config.puncture_force;
-  liver.friction_coefficient = 0.0;
+  liver.friction_coefficient = config.friction_coefficient;
   liver.friction_force_per_length = 0.0;
   liver.point_spacing = config.point_spacing;
   liver.tip_constraint = config.tip_constraint;

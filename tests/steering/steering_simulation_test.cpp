@@ -1,7 +1,8 @@
 // The inverse model and its frozen-step perturbation solves: the solve at the unperturbed pose
 // reproduces the committed step, and a perturbed solve equals a full re-simulation of the same
-// step with the perturbed needle (the two paths DESIGN.md "Speed" says must agree); a model
-// built mid-insertion catches up with one that followed the insertion.
+// step with the perturbed needle (the two paths DESIGN.md "Speed" says must agree), for the
+// frictionless model, with the needle's axial friction and with anchored nodes; a model built
+// mid-insertion catches up with one that followed the insertion.
 
 #include "common/steering/steering_simulation.h"
 
@@ -11,6 +12,7 @@
 #include <stdexcept>
 
 #include "common/core/error.h"
+#include "common/mesh/oriented_box.h"
 #include "common/robot/pose_math.h"
 #include "tests/steering/steering_test_scene.h"
 
@@ -49,6 +51,11 @@ class SteeringSimulationTest : public ::testing::Test {
     return sim;
   }
 
+  // the path targets of a model that has not moved (m)
+  std::vector<Eigen::Vector3d> RestPath() const {
+    return SteeringSimulation(model_, path_, mesh_, X_WF0_).CalcPathPositions();
+  }
+
   TetMesh mesh_;
   InverseModelConfig model_;
   SteeringPathConfig path_;
@@ -59,6 +66,39 @@ class SteeringSimulationTest : public ::testing::Test {
 // steps that put the tip ~3 cm into the liver (10 mm approach + puncture + 30 mm)
 constexpr int kInsideSteps = 25;
 
+// the region of liver_700 the anchored variant holds: its posterior-inferior part (the default
+// scenario's patient.anchors), away from the markers and the path
+OrientedBox PosteriorAnchor() {
+  OrientedBox box;
+  box.center = {0.0, -0.06, -0.045};
+  box.half_size = {0.12, 0.015, 0.045};
+  return box;
+}
+
+// The model variants the frozen-step solves must handle: frictionless and held by the markers
+// alone (the default); with the needle's axial friction (then the active set decides stick or
+// slip in the perturbation solves too); with an anchored region (fixed nodes).
+struct ModelVariant {
+  const char* name;
+  double friction_coefficient;
+  bool anchored;
+};
+
+class SteeringSimulationVariantTest : public SteeringSimulationTest,
+                                      public ::testing::WithParamInterface<ModelVariant> {
+ protected:
+  SteeringSimulationVariantTest() {
+    model_.friction_coefficient = GetParam().friction_coefficient;
+    if (GetParam().anchored) model_.anchors = {PosteriorAnchor()};
+  }
+};
+
+INSTANTIATE_TEST_SUITE_P(Models, SteeringSimulationVariantTest,
+                         ::testing::Values(ModelVariant{"plain", 0.0, false},
+                                           ModelVariant{"friction", 0.1, false},
+                                           ModelVariant{"anchored", 0.0, true}),
+                         [](const auto& info) { return std::string(info.param.name); });
+
 TEST_F(SteeringSimulationTest, PuncturesTheLiverAndSeedsPoints) {
   auto sim = Advance(kInsideSteps);
   EXPECT_TRUE(sim->liver_punctured());
@@ -68,7 +108,7 @@ TEST_F(SteeringSimulationTest, PuncturesTheLiverAndSeedsPoints) {
   EXPECT_LT((entry - path_.entry_W).norm(), 0.01);
 }
 
-TEST_F(SteeringSimulationTest, UnperturbedSolveReproducesTheCommittedStep) {
+TEST_P(SteeringSimulationVariantTest, UnperturbedSolveReproducesTheCommittedStep) {
   auto sim = Advance(kInsideSteps);
   SnapshotWorkspace ws;
   const SteeringEvaluation eval = sim->EvaluateAt(InsertionPose(X_WF0_, dir_, kInsideSteps), ws);
@@ -80,11 +120,14 @@ TEST_F(SteeringSimulationTest, UnperturbedSolveReproducesTheCommittedStep) {
     EXPECT_LT((eval.p_WPath[i] - committed[i]).norm(), kTolerance) << "path point " << i;
   }
   EXPECT_LT(eval.solve.max_violation, 1e-9);
-  // the target moved with the tissue (the needle pushes it): the check is not trivial
-  EXPECT_GT((committed.back() - path_.target_W).norm(), 1e-5);
+  // the path moved with the tissue (the needle pushes it): the check is not trivial
+  double moved = 0.0;
+  const std::vector<Eigen::Vector3d> rest = RestPath();
+  for (size_t i = 0; i < committed.size(); ++i) moved = std::max(moved, (committed[i] - rest[i]).norm());
+  EXPECT_GT(moved, 1e-5);
 }
 
-TEST_F(SteeringSimulationTest, PerturbedSolveEqualsFullResimulation) {
+TEST_P(SteeringSimulationVariantTest, PerturbedSolveEqualsFullResimulation) {
   auto sim = Advance(kInsideSteps);
   const Eigen::Isometry3d X_nominal = InsertionPose(X_WF0_, dir_, kInsideSteps);
   const SteeringEvaluation nominal = [&] {
@@ -128,6 +171,87 @@ TEST_F(SteeringSimulationTest, EvaluationHasNoSideEffects) {
   for (size_t i = 0; i < before.p_WPath.size(); ++i) {
     EXPECT_EQ(before.p_WPath[i], after.p_WPath[i]);
   }
+}
+
+std::vector<Eigen::Vector3d> BreathingMarkers(const InverseModelConfig& c, int step);
+
+// The needle's axial friction drags the model's tissue along the needle: the coupling reports
+// friction forces within the Coulomb bound of each point, and the path targets end elsewhere
+// than in the frictionless model
+TEST_F(SteeringSimulationTest, AxialFrictionDragsTheTissueAlongTheNeedle) {
+  auto plain = Advance(kInsideSteps);
+  InverseModelConfig friction = model_;
+  friction.friction_coefficient = 0.1;
+  SteeringSimulation rubbed(friction, path_, mesh_, X_WF0_);
+  for (int i = 1; i <= kInsideSteps; ++i) rubbed.Step(RestMarkers(friction), InsertionPose(X_WF0_, dir_, i));
+  double total = 0.0;
+  int slipping = 0;
+  for (const NeedlePathPoint& p : rubbed.liver_coupling().points) {
+    total += std::abs(p.axial_force);
+    slipping += p.slipping ? 1 : 0;
+    // |f_axial| <= mu |f_lateral| (Coulomb), to the solver's tolerance
+    EXPECT_LE(std::abs(p.axial_force), 0.1 * p.lateral_force.norm() + 1e-9);
+  }
+  for (const NeedlePathPoint& p : plain->liver_coupling().points) EXPECT_EQ(p.axial_force, 0.0);
+  EXPECT_GT(total, 1e-4) << "no friction force: the coefficient did not reach the coupling";
+  EXPECT_GT(slipping, 0) << "an advancing needle slips through the tissue";
+  // along the insertion, the tissue ahead of the tip is pushed further than without friction
+  const Eigen::Vector3d with = rubbed.CalcPathPositions().back() - path_.target_W;
+  const Eigen::Vector3d without = plain->CalcPathPositions().back() - path_.target_W;
+  EXPECT_GT(with.dot(dir_), without.dot(dir_));
+}
+
+// Anchored nodes never move; the rest of the model does; bad boxes are refused by name
+TEST_F(SteeringSimulationTest, AnchorsHoldTheirNodesAndAreChecked) {
+  InverseModelConfig anchored = model_;
+  anchored.anchors = {PosteriorAnchor()};
+  SteeringSimulation sim(anchored, path_, mesh_, X_WF0_);
+  for (int i = 1; i <= kInsideSteps; ++i)
+    sim.Step(BreathingMarkers(anchored, i), InsertionPose(X_WF0_, dir_, i));
+  int held = 0;
+  double moved = 0.0;
+  for (int n = 0; n < mesh_.num_nodes(); ++n) {
+    const double d = (sim.liver_positions().col(n) - mesh_.X.col(n)).norm();
+    if (PosteriorAnchor().Contains(mesh_.X.col(n))) {
+      ++held;
+      EXPECT_EQ(d, 0.0) << "anchored node " << n;
+    } else {
+      moved = std::max(moved, d);
+    }
+  }
+  EXPECT_GT(held, 10);
+  EXPECT_GT(moved, 1e-3);  // the markers moved the rest by millimetres
+
+  auto message = [&](const InverseModelConfig& c) -> std::string {
+    try {
+      SteeringSimulation s(c, path_, mesh_, X_WF0_);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  InverseModelConfig empty = model_;
+  OrientedBox far = PosteriorAnchor();
+  far.center = {1.0, 1.0, 1.0};
+  empty.anchors = {PosteriorAnchor(), far};
+  EXPECT_NE(message(empty).find("inverse.anchors[1] encloses no node"), std::string::npos)
+      << message(empty);
+  InverseModelConfig on_marker = model_;
+  OrientedBox around = PosteriorAnchor();
+  around.center = model_.markers_W[3];
+  around.half_size = {0.015, 0.015, 0.015};
+  on_marker.anchors = {around};
+  EXPECT_NE(message(on_marker).find("inverse.anchors[0] contains marker 3"), std::string::npos)
+      << message(on_marker);
+  InverseModelConfig flat = model_;
+  flat.anchors = {PosteriorAnchor()};
+  flat.anchors[0].half_size.y() = 0.0;
+  EXPECT_NE(message(flat).find("inverse.anchors[0].half_size"), std::string::npos) << message(flat);
+  InverseModelConfig negative = model_;
+  negative.friction_coefficient = -0.1;
+  EXPECT_NE(message(negative).find("inverse.friction_coefficient must be in [0, 2]"),
+            std::string::npos)
+      << message(negative);
 }
 
 // markers of a liver breathing along z (SI, 5 mm) and y (AP, 1.5 mm), period 4 s (200 steps)

@@ -1,6 +1,7 @@
 #pragma once
-// A rigid oriented box of the patient scene (a rib, the diaphragm region, an anchor region):
-// point containment, signed distance and the closest boundary point with its outward normal.
+// A rigid oriented box (a rib, the diaphragm region, an anchor region of a liver, the patient's or
+// the controller model's): point containment, signed distance and the closest boundary point
+// with its outward normal.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

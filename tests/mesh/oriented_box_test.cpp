@@ -1,4 +1,4 @@
-#include "common/scene/box.h"
+#include "common/mesh/oriented_box.h"
 
 #include <gtest/gtest.h>
 
