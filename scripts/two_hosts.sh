@@ -3,12 +3,15 @@
 # in another (10.77.0.2), joined by a veth pair, with the two-machine DDS configuration
 # (configs/dds/two_hosts.xml: explicit peers, no multicast). Needs root (ip netns, nft).
 #
-#   scripts/two_hosts.sh [scenario.yaml] [--loss PCT] [--latency-steps N] [--duration S]
-#                        [--prediction on|off] [--secure [DIR]] [--no-build]
+#   scripts/two_hosts.sh [scenario.yaml] [--loss PCT] [--mode lockstep|realtime]
+#                        [--latency-steps N] [--duration S] [--prediction on|off]
+#                        [--secure [DIR]] [--no-build]
 #
 # --loss PCT drops PCT % of the packets arriving in each namespace (nftables input rule
-# "numgen random mod 100 < PCT drop"); DDS's reliable protocol resends them. Latency is simulated
-# in the application: lockstep with --latency-steps N (default 1). Writes
+# "numgen random mod 100 < PCT drop"); DDS's reliable protocol resends them. --mode lockstep
+# (default): the latency is simulated in the application, --latency-steps N (default 1);
+# realtime: both loops run on the wall clock and the latency is what the network, the loss and
+# the solvers make it (summary.json: loop_latency_ms, the controller's measured horizon). Writes
 # results/two_hosts_<date>/ (or $NSIM_RESULTS_DIR): direct/, inverse/, the logs and summary.json
 # (merged, like scripts/run.sh). Namespaces, veth pair and rules are removed on exit, and both
 # processes are killed by PID. --secure [DIR]: DDS Security, as in scripts/run.sh (without DIR,
@@ -16,7 +19,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 scenario="$root/configs/scenarios/liver_test_coarse.yaml"
-loss=0; latency=1; duration=""; prediction=on; build=1; secure=""; secure_default=0
+loss=0; latency=1; mode=lockstep; duration=""; prediction=on; build=1; secure=""; secure_default=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --secure=*) secure="${1#--secure=}"; shift ;;
@@ -29,6 +32,7 @@ while [ $# -gt 0 ]; do
       fi ;;
     --loss) loss="$2"; shift 2 ;;
     --latency-steps) latency="$2"; shift 2 ;;
+    --mode) mode="$2"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
     --prediction) prediction="$2"; shift 2 ;;
     --no-build) build=0; shift ;;
@@ -39,6 +43,7 @@ while [ $# -gt 0 ]; do
 done
 [[ "$loss" =~ ^[0-9]+$ ]] && [ "$loss" -le 100 ] || { echo "two_hosts: --loss must be 0..100, got '$loss'" >&2; exit 2; }
 [[ "$latency" =~ ^[0-9]+$ ]] || { echo "two_hosts: --latency-steps must be an integer >= 0" >&2; exit 2; }
+case "$mode" in lockstep|realtime) ;; *) echo "two_hosts: --mode must be lockstep or realtime, got '$mode'" >&2; exit 2 ;; esac
 [ -f "$scenario" ] || { echo "two_hosts: no such scenario: $scenario" >&2; exit 2; }
 if [ "$(id -u)" -ne 0 ]; then echo "two_hosts: needs root (ip netns, nft)" >&2; exit 2; fi
 
@@ -79,16 +84,17 @@ if [ "$loss" -gt 0 ]; then
     ip netns exec "$ns" nft add rule inet nsim input iifname "${tag}*" numgen random mod 100 '<' "$loss" counter drop
   done
 fi
-echo "two_hosts: direct_sim on 10.77.0.1 ($ns1), inverse_sim on 10.77.0.2 ($ns2), loss $loss %, lockstep latency $latency steps${secure:+, DDS Security with $secure}"
+echo "two_hosts: direct_sim on 10.77.0.1 ($ns1), inverse_sim on 10.77.0.2 ($ns2), loss $loss %, $( [ "$mode" = lockstep ] && echo "lockstep latency $latency steps" || echo realtime)${secure:+, DDS Security with $secure}"
 echo "two_hosts: results in $out"
 
 common=(--dds-config "$root/configs/dds/two_hosts.xml" --domain "${NSIM_DOMAIN:-0}" --partition "$tag" --lease 3)
 [ -n "$secure" ] && common+=(--secure "$secure")
-ip netns exec "$ns2" "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --mode lockstep \
+ip netns exec "$ns2" "$bin/inverse_sim" run --config "$scenario" --out "$out/inverse" --mode "$mode" \
   --prediction "$prediction" --timeout 900 --start-timeout 60 \
   "${common[@]}" > "$out/inverse.log" 2>&1 &
 inv=$!; pids+=("$inv")
-direct_args=(--mode lockstep --latency-steps "$latency" --no-video)
+direct_args=(--mode "$mode" --no-video)
+[ "$mode" = lockstep ] && direct_args+=(--latency-steps "$latency")
 [ -n "$duration" ] && direct_args+=(--duration "$duration")
 timeout -s KILL 900 ip netns exec "$ns1" "$bin/direct_sim" run --config "$scenario" --out "$out/direct" \
   "${direct_args[@]}" "${common[@]}" > "$out/direct.log" 2>&1 &
@@ -108,8 +114,8 @@ if [ "$loss" -gt 0 ]; then
 fi
 [ -f "$out/direct/summary.json" ] || { echo "two_hosts: direct_sim wrote no summary (exit $dcode)" >&2; exit 1; }
 jq -n --slurpfile d "$out/direct/summary.json" --slurpfile i <(cat "$out/inverse/summary.json" 2>/dev/null || echo '{}') \
-  --argjson loss "$loss" --argjson latency "$latency" '($d[0]) as $d | ($i[0] // {}) as $i | {
-    loss_percent: $loss, latency_steps: $latency, direct_exit: $d.exit, inverse_ending: $i.ending,
+  --argjson loss "$loss" --argjson latency "$latency" --arg mode "$mode" '($d[0]) as $d | ($i[0] // {}) as $i | {
+    loss_percent: $loss, mode: $mode, latency_steps: (if $mode == "lockstep" then $latency else null end), direct_exit: $d.exit, inverse_ending: $i.ending,
     final_error_mm: $d.final_error_mm, final_error_amplitude_mm: $d.final_error_amplitude_mm,
     direct_rate_hz: $d.direct_rate_hz, inverse_rate_hz: $i.inverse_rate_hz,
     loop_latency_ms: $d.loop_latency_ms, nrms_percent: $i.nrms_percent,
