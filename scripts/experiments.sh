@@ -5,8 +5,8 @@
 # prediction on and off, and optionally bevel on/off and 6-DoF Cartesian vs 7-DoF iiwa.
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
-#                          [--latency-steps N[,N...]] [--gain K] [--bevel] [--dof7] [--no-build]
-#                          [--transport in_process|dds] [--jobs N] [--timeout S]
+#                          [--latency-steps N[,N...]] [--gain K] [--bevel] [--dof7]
+#                          [--settings REGEX] [--no-build] [--transport in_process|dds] [--jobs N] [--timeout S]
 #                          [--hosts H1,H2,... | --slurm] [--dry-run]
 #   scripts/experiments.sh --collect DIR
 #   scripts/experiments.sh --replay MARKERS.csv [--horizon 0.1,0.2] [--no-build]
@@ -26,8 +26,12 @@
 # table, with the paired prediction on - off lines of every latency; also printed) and
 # DIR/sweep.png (final error and amplitude against latency, one line per setting: prediction on
 # and off, 6-DoF and, with --dof7, 7-DoF). `--collect DIR` on a sweep folder rebuilds them.
-# --gain K sets the control gains k (eq. 3.9) of every setting: the scenarios' 0.1 suits a
-# 1-step latency; with --latency-steps 5 use --gain 0.5 (README, Limitations).
+# --settings REGEX keeps only the settings whose names match (bash regex, anchored: e.g.
+# 'dof7_.*' for the 7-DoF cells alone, 'pred_off' for one setting); the names are pred_on,
+# pred_off, bevel_pred_on/off (--bevel), dof7_pred_on/off (--dof7).
+# --gain K sets the control gains k (eq. 3.9 / A.3) of every setting (the scenarios' default,
+# 0.2, serves every latency with controller.compensate_in_flight: README, "Control under
+# latency").
 #
 # How the runs are run: every run is one command, scripts/experiment_run.sh, on one core, and
 # GNU parallel (Debian `parallel`, installed by scripts/setup.sh) runs the job list side by side:
@@ -63,14 +67,14 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=20
-latency=1; gain=""; bevel=0; dof7=0; build=1; replay=""; horizon="0.1,0.2,0.4"
+latency=1; gain=""; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
 transport=in_process; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
 die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # the options that take a value must have one
   case "$1" in
-    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
       [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
   esac
   case "$1" in
@@ -82,6 +86,7 @@ while [ $# -gt 0 ]; do
     --gain) gain="$2"; shift 2 ;;
     --bevel) bevel=1; shift ;;
     --dof7) dof7=1; shift ;;
+    --settings) only="$2"; shift 2 ;;
     --transport) transport="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
     --timeout) timeout="$2"; shift 2 ;;
@@ -269,6 +274,7 @@ if [[ "$latency" == *,* ]]; then
   [ -z "$gain" ] || sub+=(--gain "$gain")
   [ "$bevel" = 0 ] || sub+=(--bevel)
   [ "$dof7" = 0 ] || sub+=(--dof7)
+  [ -z "$only" ] || sub+=(--settings "$only")
   [ -z "$jobs" ] || sub+=(--jobs "$jobs")
   [ -z "$hosts" ] || sub+=(--hosts "$hosts")
   IFS=',' read -ra lats <<< "$latency"
@@ -341,6 +347,12 @@ if [ "$dof7" = 1 ]; then
   iiwa="$(variant iiwa -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  type:\) cartesian |\1 iiwa |')"
   grep -q "^  type: iiwa" "$iiwa" || die "cannot switch to the iiwa in $scenario"
   settings+=("dof7_pred_on|$iiwa|--prediction on --dof joint7" "dof7_pred_off|$iiwa|--prediction off --dof joint7")
+fi
+if [ -n "$only" ]; then
+  kept=()
+  for s in "${settings[@]}"; do [[ "${s%%|*}" =~ ^($only)$ ]] && kept+=("$s"); done
+  [ ${#kept[@]} -gt 0 ] || die "--settings '$only' matches none of: $(for s in "${settings[@]}"; do printf '%s ' "${s%%|*}"; done)"
+  settings=("${kept[@]}")
 fi
 e0=$(awk '/^  liver:/{l=1} l&&/young_modulus:/{print $2; exit}' "$scenario")
 h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
