@@ -4,6 +4,8 @@
 # what is lost and lockstep keeps the run independent of timing, so both runs end with the same
 # final error to the last digit, without a lockstep timeout or a missing frame; so does a third
 # run with 10 % loss and DDS Security (--secure, credentials made by scripts/make_credentials.sh).
+# A fourth run is realtime (--mode realtime) with 5 % loss: it completes, the controller answers
+# frames and measures the loop's delay, and the summary says realtime.
 # Exit 77 (skipped) where network namespaces or nftables are not available.
 set -u
 build="$1"; src="$2"
@@ -45,5 +47,24 @@ e0=$(field .final_error_mm 0); e10=$(field .final_error_mm 10); e10s=$(field .fi
 [ "$(field .direct.dds_security.identity 10s)" = direct_sim ] &&
   [ "$(field .inverse.dds_security.identity 10s)" = inverse_sim ] ||
   { echo "FAIL: the secured run's summaries do not say DDS Security"; fail=1; }
+
+NSIM_BUILD_DIR="$build" NSIM_RESULTS_DIR="$dir/realtime" NSIM_DOMAIN=43 timeout -s INT 150 \
+  "$src/scripts/two_hosts.sh" --no-build --duration 3 --prediction off --loss 5 --mode realtime \
+  > "$dir/realtime.log" 2>&1
+code=$?
+tail -n 4 "$dir/realtime.log"
+rt() { jq -r "$1" "$dir/realtime/summary.json"; }
+if [ "$code" -ne 0 ] || [ ! -f "$dir/realtime/summary.json" ]; then
+  cat "$dir/realtime.log"; echo "FAIL: two_hosts.sh --mode realtime exited $code"; fail=1
+else
+  [ "$(rt .mode)" = realtime ] && [ "$(rt .direct.mode)" = realtime ] ||
+    { echo "FAIL: realtime run: mode $(rt .mode) / $(rt .direct.mode)"; fail=1; }
+  [ "$(rt .direct_exit)" = completed ] || { echo "FAIL: realtime run: direct_sim $(rt .direct_exit)"; fail=1; }
+  answered=$(rt '.inverse.frames_answered // 0')
+  [ "$answered" -gt 50 ] || { echo "FAIL: realtime run: the controller answered $answered frames"; fail=1; }
+  [ "$(rt '.loop_latency_ms.count // 0')" -gt 50 ] || { echo "FAIL: realtime run: no loop latency measured"; fail=1; }
+  awk -v d="$(rt '.inverse.measured_loop_delay_ms.median // 0')" 'BEGIN { exit !(d > 0 && d < 1000) }' ||
+    { echo "FAIL: realtime run: measured loop delay $(rt '.inverse.measured_loop_delay_ms.median')"; fail=1; }
+fi
 [ "$fail" -eq 0 ] || exit 1
-echo "PASS: final error $e0 mm with and without 10 % loss, secured too ($dropped packets dropped)"
+echo "PASS: final error $e0 mm with and without 10 % loss, secured too ($dropped packets dropped); realtime with 5 % loss: $(rt .inverse.frames_answered) frames answered, loop latency median $(rt .loop_latency_ms.median) ms"
