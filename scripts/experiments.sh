@@ -142,9 +142,11 @@ collect_batch() {  # collect_batch DIR
     "$root/scripts/experiment_run.sh" row "$dir/$name/run_$r" "$name" "$r" "$rseed" "$emod" >> "$dir/runs.csv"
   done < "$dir/jobs.txt"
 
-  # mean and std per setting (runs with numbers; failed runs counted)
+  # mean and std per setting over the runs with numbers (a run stopped early, e.g. by the
+  # physics watchdog, keeps the final error of its last 20 %); failed = the runs whose exit
+  # is not "completed"
   awk -F, 'NR > 1 { n[$1]++; if ($6 != "") { k[$1]++; e[$1] += $6; e2[$1] += $6 * $6; a[$1] += $7; a2[$1] += $7 * $7;
-                     if ($12 != "") { m[$1]++; nr[$1] += $12 } } else bad[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 } }
+                     if ($12 != "") { m[$1]++; nr[$1] += $12 } } if ($5 != "completed") bad[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 } }
     function sd(s, s2, c) { return c > 1 ? sqrt((s2 - s * s / c) / (c - 1)) : 0 }
     END { printf "%-16s %5s %22s %22s %12s %7s\n", "setting", "runs", "final error (mm)", "amplitude (mm)", "nRMS (%)", "failed";
           for (i = 1; i <= o; i++) { s = order[i]; c = k[s];
@@ -214,7 +216,9 @@ collect_sweep() {  # collect_sweep DIR
     lat="${d##*latency_}"
     [ -f "$d/runs.csv" ] || { echo "experiments: $d has no runs.csv (collect it first)" >&2; return 1; }
     awk -F, -v L="$lat" 'NR > 1 { n[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 }
-        if ($6 == "") { bad[$1]++; next } k[$1]++; e[$1] += $6; e2[$1] += $6 * $6; a[$1] += $7; a2[$1] += $7 * $7
+        if ($5 != "completed") bad[$1]++
+        if ($6 == "") next
+        k[$1]++; e[$1] += $6; e2[$1] += $6 * $6; a[$1] += $7; a2[$1] += $7 * $7
         if (!($1 in w) || $6 > w[$1]) w[$1] = $6 }
       function sd(s, s2, c) { return c > 1 ? sqrt((s2 - s * s / c) / (c - 1)) : 0 }
       END { for (i = 1; i <= o; i++) { s = order[i]; c = k[s]
