@@ -82,6 +82,7 @@ void PatientRecorder::AddStep(const PatientLoop& loop) {
   if (s.scene.num_active_rib_contacts > 0) ++rib_contact_steps_;
   if (!s.scene.solve.converged) ++unconverged_solves_;
   max_rib_penetration_ = std::max(max_rib_penetration_, s.max_rib_penetration);
+  min_joint_margin_ = std::min(min_joint_margin_, loop.robot().joint_limit_margin());
   std::ostringstream row;
   row << std::setprecision(17);
   row << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ',' << (s.holding ? 1 : 0);
@@ -176,6 +177,9 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
                       {"targets_applied", o.targets_applied}});
   j["controller_owners"] = owners;
   j["max_rib_penetration_mm"] = 1e3 * max_rib_penetration_;
+  // iiwa: how close any joint came to its position limit over the run (rad); null otherwise
+  j["min_joint_limit_margin_rad"] =
+      std::isfinite(min_joint_margin_) ? json(min_joint_margin_) : json(nullptr);
   j["rib_contact_steps"] = rib_contact_steps_;
   j["unconverged_constraint_solves"] = unconverged_solves_;
   j["frames_published"] = frames_;

@@ -90,6 +90,7 @@ class PatientRecorder {
   std::vector<std::pair<double, double>> distance_log_;  // (t, true tip-target distance (m))
   std::vector<double> step_ms_;
   double last_distance_ = 0.0, min_distance_ = INFINITY, max_rib_penetration_ = 0.0;
+  double min_joint_margin_ = INFINITY;  // iiwa: closest approach of a joint to its limit (rad)
   Eigen::Vector3d last_e_p_ = Eigen::Vector3d::Zero();
   int last_phase_ = 0;
   uint64_t hold_steps_ = 0, rib_contact_steps_ = 0, unconverged_solves_ = 0, frames_ = 0;

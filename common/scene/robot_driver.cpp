@@ -1,6 +1,8 @@
 #include "common/scene/robot_driver.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "common/core/error.h"
 #include "common/robot/pose_math.h"
@@ -83,6 +85,13 @@ void RobotDriver::Hold(double dt) {
 std::vector<double> RobotDriver::q() const {
   if (!iiwa_) return {};
   return std::vector<double>(joint_state_.q.data(), joint_state_.q.data() + kIiwaNumJoints);
+}
+
+double RobotDriver::joint_limit_margin() const {
+  if (!iiwa_) return std::numeric_limits<double>::infinity();
+  const Iiwa14Config& c = config_.iiwa;
+  return std::min((joint_state_.q - c.position_lower).minCoeff(),
+                  (c.position_upper - joint_state_.q).minCoeff());
 }
 
 Eigen::Isometry3d InsertionPlan::CalcFlangePose(double s) const {

@@ -54,6 +54,9 @@ class RobotDriver {
   const Eigen::Isometry3d& X_WE() const { return X_WE_; }
   /// Joint angles now (rad), 7 entries for the iiwa, empty for the Cartesian robot.
   std::vector<double> q() const;
+  /// iiwa: the smallest distance of a joint to its nearer position limit now (rad; negative
+  /// beyond it). Cartesian robot: +infinity (it has no joints).
+  double joint_limit_margin() const;
   /// Flange linear speed over the last step (m/s).
   double linear_speed() const { return speed_; }
   const RobotDriverConfig& config() const { return config_; }

@@ -69,6 +69,7 @@ TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
   EXPECT_LT(s["final_tip_to_target_distance_mm"].get<double>(), 50.0);  // 65 mm at the start
   EXPECT_EQ(s["targets"]["received"], 0);
   EXPECT_LT(s["max_rib_penetration_mm"].get<double>(), 1e-5);
+  EXPECT_TRUE(s["min_joint_limit_margin_rad"].is_null());  // the Cartesian robot has no joints
   EXPECT_EQ(s["outputs"]["vtk_snapshots"], 2);
   EXPECT_EQ(s["settings"]["liver_nodes"], 685);
   EXPECT_TRUE(fs::exists(dir / "out/vtk/liver_000050.vtk"));

@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
 #include "common/core/error.h"
 #include "tests/scene/scene_test_util.h"
 
@@ -61,6 +66,28 @@ TEST(RobotDriverTest, IiwaOnTheDefaultBaseReachesThePlannedStart) {
   for (int k = 1; k <= 100; ++k) robot.StepToPose(plan.CalcFlangePose(1e-4 * k), 0.02);
   for (int k = 0; k < 50; ++k) robot.StepToPose(plan.CalcFlangePose(0.01), 0.02);
   EXPECT_LT((robot.X_WE().translation() - plan.CalcFlangePose(0.01).translation()).norm(), 1e-5);
+
+  // the joint-limit margin is the smallest distance of a joint to its nearer limit, by hand
+  const std::vector<double> q = robot.q();
+  double margin = INFINITY;
+  for (int j = 0; j < 7; ++j)
+    margin = std::min({margin, q[j] - s.robot.iiwa.position_lower[j],
+                       s.robot.iiwa.position_upper[j] - q[j]});
+  EXPECT_DOUBLE_EQ(robot.joint_limit_margin(), margin);
+  EXPECT_GT(margin, 0.0);
+  // a joint commanded to its limit ends at it (the driver saturates): margin 0
+  std::vector<double> at_limit = q;
+  at_limit[3] = s.robot.iiwa.position_upper[3] + 0.5;
+  for (int k = 0; k < 2000; ++k) robot.StepToJoints(at_limit, 0.02);
+  EXPECT_NEAR(robot.joint_limit_margin(), 0.0, 1e-9);
+}
+
+TEST(RobotDriverTest, CartesianRobotHasNoJointLimitMargin) {
+  DirectScenario s = testing::LoadCoarseScenario();
+  const RigidNeedleModel needle(s.scene.needle.geometry());
+  const InsertionPlan plan = MakeInsertionPlan(s.scene.entry_W, s.scene.target_W, needle, 0.01);
+  const RobotDriver robot(s.robot, plan.CalcFlangePose(0));
+  EXPECT_EQ(robot.joint_limit_margin(), std::numeric_limits<double>::infinity());
 }
 
 }  // namespace
