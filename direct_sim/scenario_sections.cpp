@@ -26,7 +26,8 @@ const std::vector<std::string> kFemKeys = {"mesh",
                                            "cg_max_iterations",
                                            "refactor_iteration_threshold",
                                            "background_refactor",
-                                           "refactor_adopt_delay"};
+                                           "refactor_adopt_delay",
+                                           "element_threads"};
 
 void ReadFem(const YamlReader& node, FemConfig* fem) {
   node.Read("young_modulus", &fem->young_modulus);
@@ -41,6 +42,7 @@ void ReadFem(const YamlReader& node, FemConfig* fem) {
   node.Read("refactor_iteration_threshold", &fem->refactor_iteration_threshold);
   node.Read("background_refactor", &fem->background_refactor);
   node.Read("refactor_adopt_delay", &fem->refactor_adopt_delay);  // validated with the scene
+  node.Read("element_threads", &fem->element_threads);
 }
 
 TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::string* path) {

@@ -18,8 +18,10 @@ namespace {
 
 void ReadFem(const YamlReader& y, FemConfig* c) {
   y.CheckKeys({"young_modulus", "poisson_ratio", "density", "rayleigh_mass", "rayleigh_stiffness",
-               "time_step", "linear_solver", "cg_relative_tolerance", "background_refactor"});
+               "time_step", "linear_solver", "cg_relative_tolerance", "background_refactor",
+               "element_threads"});
   y.Read("background_refactor", &c->background_refactor);
+  y.Read("element_threads", &c->element_threads);
   y.Read("young_modulus", &c->young_modulus);
   y.Read("poisson_ratio", &c->poisson_ratio);
   y.Read("density", &c->density);

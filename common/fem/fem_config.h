@@ -64,6 +64,14 @@ struct FemConfig {
   /// takes ~30-60 ms, i.e. 2-3 steps of 20 ms; the older factor costs ~0.2 PCG iterations a
   /// step more in the patient scene (tests/bench/scene_bench.cpp, DirectSceneSequence).
   int refactor_adopt_delay = 3;
+  /// Threads of the element passes (the elastic forces and rotations of each step, and the
+  /// matrix-free products of the conjugate gradient), 1-8: the tets are split into this many
+  /// fixed, contiguous parts, part 0 on the calling thread and the others on helper threads
+  /// (common/fem/fork_join.h), each part summing into its own buffers, added in part order.
+  /// Deterministic for a given count (every run gives the same bits); a different count
+  /// changes the result at round-off (the sums are associated differently). 1 (the default):
+  /// the serial passes, exactly as without this setting. Pays only with a free core.
+  int element_threads = 1;
 
   /// Throws InputError with "fem.<key> must be ..., got <value>" for the first invalid field.
   void Validate() const;

@@ -3,12 +3,14 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <thread>
 #include <utility>
 
 #include "common/core/error.h"
 #include "common/fem/cholmod_factor.h"
+#include "common/fem/fork_join.h"
 
 namespace nsim {
 
@@ -31,6 +33,14 @@ struct FemSolver::Impl {
   std::vector<Eigen::Matrix3d> reference_rotations;  // nodal rotations the active factor was made at
   std::vector<Eigen::Matrix3d> warp;  // Q = current * reference^T, per free node
   bool factor_is_current = false;     // active factor is this step's A (Q = I)
+
+  // element passes over FemConfig::element_threads parts: part p covers the tets
+  // [part_begin[p], part_begin[p + 1]); parts p >= 1 sum into part_forces / part_out[p - 1],
+  // added to part 0's sums in part order
+  std::unique_ptr<ForkJoin> pool;  // null with one part
+  std::vector<int> part_begin;
+  std::vector<Eigen::Matrix3Xd> part_forces, part_out;
+  std::vector<int> part_inverted;
 
   // scratch, preallocated
   Eigen::Matrix3Xd full_in, full_out, full_w;  // full_in: Dirichlet columns always zero
@@ -85,6 +95,13 @@ struct FemSolver::Impl {
     full_sum = Eigen::Matrix3Xd::Zero(3, n);
     zero_correction = Eigen::VectorXd::Zero(3 * n);
     for (Eigen::VectorXd* v : {&b, &dv, &r, &z, &p, &ap, &tmp}) *v = Eigen::VectorXd::Zero(ndof);
+    const int parts = config.element_threads;
+    for (int q = 0; q <= parts; ++q)
+      part_begin.push_back(static_cast<int>(static_cast<std::int64_t>(model.num_tets()) * q / parts));
+    part_forces.assign(parts - 1, Eigen::Matrix3Xd::Zero(3, n));
+    part_out.assign(parts - 1, Eigen::Matrix3Xd::Zero(3, n));
+    part_inverted.assign(parts, 0);
+    if (parts > 1) pool = std::make_unique<ForkJoin>(parts);
 
     // one factorization of A_0: kept as the rest factor, and copied (no second factorization)
     // as the first cached factor, which refreshes then overwrite
@@ -169,24 +186,35 @@ struct FemSolver::Impl {
     }
   }
 
+  // fn(part) for every element part, in parallel when there are several
+  void RunParts(const std::function<void(int)>& fn) {
+    if (pool) pool->Run(fn);
+    else fn(0);
+  }
+
   // out = A_ff in (reduced vectors), matrix-free with the current rotations
   void Multiply(const Eigen::VectorXd& in, Eigen::VectorXd& out) {
     const auto& free_nodes = model.get_free_nodes();
     for (int k = 0; k < num_free; ++k) full_in.col(free_nodes[k]) = in.segment<3>(3 * k);
     full_out.setZero();
     const auto& tets = model.get_mesh().tets;
-    for (int e = 0; e < model.num_tets(); ++e) {
-      const Eigen::Vector4i& t = tets[e];
-      // R K_e R^T p with rotated gradients r = R g: G = sum_b p_b r_b^T,
-      // y_a = V (lambda tr(G) I + mu (G + G^T)) r_a (same as ApplyCorotatedStiffness, fewer flops)
-      const Matrix34d& rg = rotated_grad[e];
-      Eigen::Matrix3d G = full_in.col(t[0]) * rg.col(0).transpose();
-      for (int a = 1; a < 4; ++a) G.noalias() += full_in.col(t[a]) * rg.col(a).transpose();
-      Eigen::Matrix3d sigma = lame.mu * (G + G.transpose());
-      sigma.diagonal().array() += lame.lambda * G.trace();
-      const Matrix34d ye = model.get_rest_shapes()[e].volume * sigma * rg;
-      for (int a = 0; a < 4; ++a) full_out.col(t[a]) += ye.col(a);
-    }
+    RunParts([&](int part) {
+      Eigen::Matrix3Xd& sum = part == 0 ? full_out : part_out[part - 1];
+      if (part > 0) sum.setZero();
+      for (int e = part_begin[part]; e < part_begin[part + 1]; ++e) {
+        const Eigen::Vector4i& t = tets[e];
+        // R K_e R^T p with rotated gradients r = R g: G = sum_b p_b r_b^T, y_a = V (lambda
+        // tr(G) I + mu (G + G^T)) r_a (same as ApplyCorotatedStiffness, fewer flops)
+        const Matrix34d& rg = rotated_grad[e];
+        Eigen::Matrix3d G = full_in.col(t[0]) * rg.col(0).transpose();
+        for (int a = 1; a < 4; ++a) G.noalias() += full_in.col(t[a]) * rg.col(a).transpose();
+        Eigen::Matrix3d sigma = lame.mu * (G + G.transpose());
+        sigma.diagonal().array() += lame.lambda * G.trace();
+        const Matrix34d ye = model.get_rest_shapes()[e].volume * sigma * rg;
+        for (int a = 0; a < 4; ++a) sum.col(t[a]) += ye.col(a);
+      }
+    });
+    for (const Eigen::Matrix3Xd& sum : part_out) full_out += sum;
     for (int k = 0; k < num_free; ++k)
       out.segment<3>(3 * k) = mass_scale * mass_free.segment<3>(3 * k).cwiseProduct(in.segment<3>(3 * k)) +
                               stiffness_scale * full_out.col(free_nodes[k]);
@@ -408,27 +436,42 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
   state.forces.setZero();
   s.full_out.setZero();
   const auto& tets = model.get_mesh().tets;
-  for (int e = 0; e < model.num_tets(); ++e) {
-    const Eigen::Vector4i& t = tets[e];
-    const TetRestShape& rest = model.get_rest_shapes()[e];
-    Matrix34d xe, we;
-    for (int a = 0; a < 4; ++a) {
-      xe.col(a) = state.x.col(t[a]);
-      we.col(a) = s.full_w.col(t[a]);
+  s.RunParts([&](int part) {
+    Eigen::Matrix3Xd& forces = part == 0 ? state.forces : s.part_forces[part - 1];
+    Eigen::Matrix3Xd& kw = part == 0 ? s.full_out : s.part_out[part - 1];
+    if (part > 0) {
+      forces.setZero();
+      kw.setZero();
     }
-    const Eigen::Matrix3d F = CalcDeformationGradient(rest, xe);
-    bool used_svd = false;
-    const Eigen::Matrix3d R = CalcPolarRotation(F, &used_svd);
-    if (used_svd) ++stats_.inverted_tets;
-    s.rotations[e] = R;
-    s.rotated_grad[e] = R * rest.grad_n;
-    const Matrix34d fe = CalcCorotatedForce(rest, s.lame, R, F);
-    const Matrix34d kwe = ApplyCorotatedStiffness(rest, s.lame, R, we);
-    for (int a = 0; a < 4; ++a) {
-      state.forces.col(t[a]) += fe.col(a);
-      s.full_out.col(t[a]) += kwe.col(a);
+    int inverted = 0;
+    for (int e = s.part_begin[part]; e < s.part_begin[part + 1]; ++e) {
+      const Eigen::Vector4i& t = tets[e];
+      const TetRestShape& rest = model.get_rest_shapes()[e];
+      Matrix34d xe, we;
+      for (int a = 0; a < 4; ++a) {
+        xe.col(a) = state.x.col(t[a]);
+        we.col(a) = s.full_w.col(t[a]);
+      }
+      const Eigen::Matrix3d F = CalcDeformationGradient(rest, xe);
+      bool used_svd = false;
+      const Eigen::Matrix3d R = CalcPolarRotation(F, &used_svd);
+      if (used_svd) ++inverted;
+      s.rotations[e] = R;
+      s.rotated_grad[e] = R * rest.grad_n;
+      const Matrix34d fe = CalcCorotatedForce(rest, s.lame, R, F);
+      const Matrix34d kwe = ApplyCorotatedStiffness(rest, s.lame, R, we);
+      for (int a = 0; a < 4; ++a) {
+        forces.col(t[a]) += fe.col(a);
+        kw.col(t[a]) += kwe.col(a);
+      }
     }
+    s.part_inverted[part] = inverted;
+  });
+  for (size_t q = 0; q < s.part_forces.size(); ++q) {
+    state.forces += s.part_forces[q];
+    s.full_out += s.part_out[q];
   }
+  for (int inverted : s.part_inverted) stats_.inverted_tets += inverted;
   state.rotations = s.rotations;
   const Eigen::VectorXd& mass = model.get_lumped_mass();
   const Eigen::Vector3d& g = model.get_config().gravity;

@@ -14,6 +14,8 @@
 // breathing steps from rest (12 s, 3 cycles; 200 for the direct path), wall clock, one sequence per
 // repetition: counters p50_ms, p90_ms, p99_ms, max_ms (tests/bench/step_times.h), the steps
 // that adopt a background factor (swap_step_ms) or hand one to the worker (request_step_ms).
+// ...ElementThreads2: the element passes split over two threads (FemConfig::element_threads);
+// the 10000-node sequences are 100 steps.
 // The worker needs a second core to be off the critical path: on one core (taskset -c 1) it
 // time-shares with the steps it overlaps.
 
@@ -72,7 +74,7 @@ struct Fixture {
   std::unique_ptr<FemState> state;
 
   Fixture(int nodes, FemLinearSolver kind, bool background, int adopt_delay = 3,
-          int warm_up_steps = 50) {
+          int warm_up_steps = 50, int element_threads = 1) {
     const LiverScene scene = MakeScene(MeshPath(nodes));
     FemConfig config;  // liver: E 5.5 kPa, nu 0.45, rho 1060, h 20 ms
     config.rayleigh_mass = 0.1;
@@ -80,6 +82,7 @@ struct Fixture {
     config.linear_solver = kind;
     config.background_refactor = background;
     config.refactor_adopt_delay = adopt_delay;
+    config.element_threads = element_threads;
     model = std::make_unique<FemModel>(scene.mesh, config, scene.boundary);
     solver = std::make_unique<FemSolver>(*model);
     state = std::make_unique<FemState>(*model);
@@ -109,10 +112,10 @@ void RunSteps(benchmark::State& bench, int nodes, FemLinearSolver kind, bool bac
 
 // the step-time distribution over a long breathing sequence (Iterations = steps)
 void RunSequence(benchmark::State& bench, int nodes, FemLinearSolver kind, bool background,
-                 int adopt_delay = 3) {
+                 int adopt_delay = 3, int element_threads = 1) {
   // from rest: the first second needs the refreshes (~5); after it the warm-started PCG needs
   // ~2.5 iterations a step and the breathing alone asks for none
-  Fixture fixture(nodes, kind, background, adopt_delay, 0);
+  Fixture fixture(nodes, kind, background, adopt_delay, 0, element_threads);
   StepTimes times(static_cast<size_t>(bench.max_iterations));
   std::vector<double> swap_ms, request_ms;
   double iterations = 0, refactorizations = 0, swaps = 0, waits = 0, steps = 0;
@@ -213,11 +216,29 @@ int main(int argc, char** argv) {
             })
             ->Unit(benchmark::kMillisecond)->Iterations(600)->UseRealTime();
       }
+      benchmark::RegisterBenchmark(("LiverStepSequence/BackgroundRefreshElementThreads2/" + n).c_str(),
+                                   [nodes](benchmark::State& s) {
+                                     RunSequence(s, nodes, FemLinearSolver::kPcgCachedFactor, true, 3, 2);
+                                   })
+          ->Unit(benchmark::kMillisecond)->Iterations(600)->UseRealTime();
       benchmark::RegisterBenchmark(("LiverStepSequence/RefactorEveryStep/" + n).c_str(),
                                    [nodes](benchmark::State& s) {
                                      RunSequence(s, nodes, FemLinearSolver::kDirect, false);
                                    })
           ->Unit(benchmark::kMillisecond)->Iterations(200)->UseRealTime();
+    }
+    if (nodes == 10000) {
+      // 100 steps (2 s) from rest: the 10000-node step serial and with the element passes on two
+      // threads (a second core; on one core the helper time-shares)
+      for (int threads : {1, 2}) {
+        benchmark::RegisterBenchmark(
+            ("LiverStepSequence/BackgroundRefresh" +
+             std::string(threads == 1 ? "" : "ElementThreads2") + "/" + n).c_str(),
+            [nodes, threads](benchmark::State& s) {
+              RunSequence(s, nodes, FemLinearSolver::kPcgCachedFactor, true, 3, threads);
+            })
+            ->Unit(benchmark::kMillisecond)->Iterations(100)->UseRealTime();
+      }
     }
     if (nodes <= 2660) {
       benchmark::RegisterBenchmark(("LiverStepRefactorEveryStep/" + n).c_str(),
