@@ -186,8 +186,10 @@ struct FemSolver::Impl {
     }
   }
 
-  // fn(part) for every element part, in parallel when there are several
-  void RunParts(const std::function<void(int)>& fn) {
+  // fn(part) for every element part, in parallel when there are several (the serial path calls
+  // fn directly: no std::function on the hot path)
+  template <typename Fn>
+  void RunParts(Fn&& fn) {
     if (pool) pool->Run(fn);
     else fn(0);
   }
