@@ -18,7 +18,7 @@ class Ros2ControllerPump {
         recorder_(recorder),
         options_(options),
         info_(*info),
-        input_(options.ros2, options.entry_normal_W),
+        input_(options.ros2, options.entry_normal_W, options.joints_required),
         output_(options.ros2, Targets()) {}
 
   int Run() {
@@ -40,9 +40,12 @@ class Ros2ControllerPump {
       if (InterruptRequested()) return Finish(1, "interrupted");
       if (last_frame_at < 0 && now - start > options_.start_timeout) {
         std::fprintf(stderr,
-                     "inverse_sim run: no complete frame (%s and %s) after %.0f s on ROS 2 "
+                     "inverse_sim run: no complete frame (%s and %s%s) after %.0f s on ROS 2 "
                      "domain %d\n",
                      transport::ros2_topic::kMarkers, transport::ros2_topic::kRobotPose,
+                     options_.joints_required > 0
+                         ? Str(" and ", transport::ros2_topic::kJointStates).c_str()
+                         : "",
                      options_.start_timeout, options_.ros2.domain_id);
         return Finish(1, "timeout");
       }

@@ -23,6 +23,8 @@ struct ControllerRos2Options {
   /// the skin normal of the entry point (a PointStamped has none): the opposite of the
   /// planned insertion direction
   Eigen::Vector3d entry_normal_W = Eigen::Vector3d::UnitZ();
+  /// joint positions a frame must carry (7: the iiwa's joint law; 0: none needed)
+  size_t joints_required = 0;
   bool quiet = false;
 };
 

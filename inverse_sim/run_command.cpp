@@ -34,6 +34,7 @@ ControllerRos2Options Ros2IoOptions(const CommandLine& cli, const InverseScenari
   o.quiet = pump.quiet;
   const SteeringPathConfig& path = scenario.loop.path;
   o.entry_normal_W = (path.entry_W - path.target_W).normalized();
+  if (scenario.loop.control.dof == SteeringDof::kJoint7) o.joints_required = 7;
   return o;
 }
 

@@ -219,9 +219,10 @@ bool Ros2Mirror::WaitForAcks(double timeout_s) const {
 }
 
 struct Ros2Input::Impl {
-  Impl(const Ros2Config& config, const Eigen::Vector3d& normal)
+  Impl(const Ros2Config& config, const Eigen::Vector3d& normal, size_t joints)
       : participant(config),
         entry_normal(normal),
+        joints_required(joints),
         markers(participant.Reader(geometry_msgs_msg_dds__PoseArray__desc, ros2_topic::kMarkers)),
         robot_pose(participant.Reader(geometry_msgs_msg_dds__PoseStamped__desc,
                                       ros2_topic::kRobotPose)),
@@ -256,6 +257,9 @@ struct Ros2Input::Impl {
     TakeAll<sensor_msgs_msg_dds__JointState_>(joint_states, [&](const auto& msg) {
       std::vector<double> joints;
       if (auto e = FromRos2Joints(msg, &joints); !e.empty()) return Invalid(e);
+      if (joints_required > 0 && joints.size() != joints_required)
+        return Invalid(Str(ros2_topic::kJointStates, ": ", joints.size(),
+                           " positions, the controller's robot has ", joints_required));
       q = std::move(joints);
       ++counts.joint_states;
     });
@@ -269,6 +273,7 @@ struct Ros2Input::Impl {
 
   Ros2Participant participant;
   Eigen::Vector3d entry_normal;
+  size_t joints_required;
   dds_entity_t markers, robot_pose, joint_states, entry_point, waitset = 0;
   std::optional<Eigen::Isometry3d> X_WE;
   std::vector<double> q;
@@ -276,8 +281,9 @@ struct Ros2Input::Impl {
   Ros2InputCounts counts;
 };
 
-Ros2Input::Ros2Input(const Ros2Config& config, const Eigen::Vector3d& entry_normal_W)
-    : impl_(std::make_unique<Impl>(config, entry_normal_W.normalized())) {}
+Ros2Input::Ros2Input(const Ros2Config& config, const Eigen::Vector3d& entry_normal_W,
+                     size_t joints_required)
+    : impl_(std::make_unique<Impl>(config, entry_normal_W.normalized(), joints_required)) {}
 
 Ros2Input::~Ros2Input() = default;
 
@@ -297,7 +303,7 @@ size_t Ros2Input::Take(std::vector<SensorFrame>& out) {
         !e.empty())
       return m.Invalid(e);
     ++m.counts.markers;
-    if (!m.X_WE) {
+    if (!m.X_WE || (m.joints_required > 0 && m.q.size() != m.joints_required)) {
       ++m.counts.incomplete;
       return;
     }

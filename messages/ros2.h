@@ -97,7 +97,7 @@ struct Ros2InputCounts {
   uint64_t joint_states = 0;  ///< valid JointStates taken
   uint64_t entry_points = 0;  ///< valid PointStampeds taken
   uint64_t frames = 0;        ///< SensorFrames assembled
-  uint64_t incomplete = 0;    ///< PoseArrays dropped because no robot pose had come yet
+  uint64_t incomplete = 0;    ///< PoseArrays dropped: no robot pose (or required joints) yet
   uint64_t invalid = 0;       ///< messages dropped because they failed validation
   std::string last_invalid;   ///< why the last dropped message was invalid
   int marker_publishers = 0;  ///< publishers matched on /nsim/markers now
@@ -107,13 +107,16 @@ struct Ros2InputCounts {
 /// driver, direct_sim's mirror): each PoseArray on /nsim/markers makes one frame with the
 /// newest PoseStamped on /nsim/robot/pose, the newest JointState on /nsim/robot/joint_states
 /// (if any came) and the newest PointStamped on /nsim/entry_point, stamped with the markers'
-/// header stamp. A frame is complete once markers and a robot pose have arrived; the entry
-/// point counts as not punctured until a PointStamped arrives.
+/// header stamp. A frame is complete once markers and a robot pose have arrived, and joint
+/// states with `joints_required` positions when that is not 0 (a joint-space controller cannot
+/// use a frame without them); the entry point counts as not punctured until a PointStamped
+/// arrives.
 class Ros2Input {
  public:
   /// `entry_normal_W`: the skin normal a frame carries with the entry point (a PointStamped
   /// has none): the controller passes the opposite of its planned insertion direction.
-  Ros2Input(const Ros2Config& config, const Eigen::Vector3d& entry_normal_W);
+  Ros2Input(const Ros2Config& config, const Eigen::Vector3d& entry_normal_W,
+            size_t joints_required = 0);
   ~Ros2Input();
   Ros2Input(const Ros2Input&) = delete;
   Ros2Input& operator=(const Ros2Input&) = delete;

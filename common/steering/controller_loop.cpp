@@ -111,6 +111,11 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     Reject(Str("frame ", frame.stamp.seq, " has no robot state (a marker-only stream)"));
     return std::nullopt;
   }
+  if (config_.control.dof == SteeringDof::kJoint7 && frame.q.size() != 7) {
+    Reject(Str("frame ", frame.stamp.seq, " has ", frame.q.size(),
+               " joint positions; the iiwa's joint law needs 7"));
+    return std::nullopt;
+  }
   if (!controller_) {  // InputError here is fatal: the model cannot be built from the config
     controller_ = std::make_unique<SteeringController>(config_.model, config_.path,
                                                        config_.control, mesh_, frame.X_WE);

@@ -143,6 +143,48 @@ TEST(Ros2, MirroredFramesAreAssembledBack) {
   EXPECT_TRUE(mirror.WaitForAcks(5.0));
 }
 
+// a joint-space controller (the iiwa's joint law) needs the joints: a frame without joint
+// states is incomplete, a JointState without the seventh joint is invalid and named
+TEST(Ros2, AJointControllerWaitsForSevenJoints) {
+  Ros2Mirror mirror(LoopbackConfig(), {true, false, false, false});
+  Ros2Input input(LoopbackConfig(), Eigen::Vector3d::UnitZ(), 7);
+  ASSERT_TRUE(mirror.WaitForMarkerSubscribers(1, 10.0));
+  SensorFrame no_joints = RobotFrame(0.02);
+  no_joints.q.clear();
+  mirror.PublishFrame(no_joints);
+  std::vector<SensorFrame> got;
+  double end = MonotonicSeconds() + 10.0;
+  while ((input.counts().incomplete < 1 || input.counts().robot_poses < 1) &&
+         MonotonicSeconds() < end) {
+    input.Wait(0.05);
+    input.Take(got);
+  }
+  EXPECT_EQ(input.counts().incomplete, 1u);
+  EXPECT_EQ(input.counts().robot_poses, 1u);
+  EXPECT_TRUE(got.empty());
+
+  SensorFrame six = RobotFrame(0.04);
+  six.q.pop_back();
+  mirror.PublishFrame(six);
+  end = MonotonicSeconds() + 10.0;
+  while ((input.counts().invalid < 1 || input.counts().incomplete < 2) &&
+         MonotonicSeconds() < end) {
+    input.Wait(0.05);
+    input.Take(got);
+  }
+  EXPECT_TRUE(got.empty());
+  EXPECT_EQ(input.counts().invalid, 1u);
+  EXPECT_NE(input.counts().last_invalid.find("no joint named a7"), std::string::npos)
+      << input.counts().last_invalid;
+
+  const SensorFrame full = RobotFrame(0.06);
+  mirror.PublishFrame(full);
+  got = TakeUntil(input, 1, 10.0);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].q, full.q);
+  EXPECT_NEAR(got[0].stamp.sim_time, 0.06, 1e-9);
+}
+
 TEST(Ros2, AnotherFrameIdIsDropped) {
   Ros2Config other = LoopbackConfig();
   other.frame_id = "camera";

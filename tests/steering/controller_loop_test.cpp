@@ -51,6 +51,28 @@ TEST(ControllerLoopTest, RefusesFramesItCannotUse) {
   EXPECT_EQ(loops.controller.counts().targets, 0u);
 }
 
+// the iiwa's joint law cannot use a frame without the 7 joints (a ROS 2 robot whose joint
+// states have not arrived, a Cartesian robot): refused by name, no model built from it
+TEST(ControllerLoopTest, AJointLawRefusesFramesWithoutSevenJoints) {
+  Loops loops;
+  ControllerLoopConfig config = loops.inverse.loop;
+  config.control.dof = SteeringDof::kJoint7;
+  ControllerLoop joint(config, ReadGmshMesh(loops.inverse.mesh_path));
+  SensorFrame frame = loops.patient.frame();  // the Cartesian robot: no joints
+  ASSERT_TRUE(frame.q.empty());
+  EXPECT_FALSE(joint.Step(frame).has_value());
+  EXPECT_EQ(joint.counts().rejected_frames, 1u);
+  EXPECT_NE(joint.counts().last_rejection.find("0 joint positions; the iiwa's joint law needs 7"),
+            std::string::npos)
+      << joint.counts().last_rejection;
+  EXPECT_EQ(joint.controller(), nullptr);
+  frame.stamp.sim_time += 0.02;
+  frame.q = {0, 0, 0, 0, 0, 0};
+  EXPECT_FALSE(joint.Step(frame).has_value());
+  EXPECT_EQ(joint.counts().rejected_frames, 2u);
+  EXPECT_EQ(joint.counts().targets, 0u);
+}
+
 TEST(ControllerLoopTest, AnswersEachFrameWithATargetForItsSequenceNumber) {
   Loops loops;
   for (int k = 0; k < 5; ++k) {
