@@ -231,8 +231,16 @@ class PatientPump {
         target = delay_.TakeFor(k);
       }
     }
+    // lockstep: the owner's answer for this step is here although its lease has expired since
+    // (a stall of either process: one resumed sees the other's lease expire before its next
+    // message is read): the step is the one an undisturbed run takes. The robot holds from the
+    // next step whose answer is missing, until the owner is back.
+    const bool answered_while_lost =
+        target && watch_ && watch_->state() == ControllerWatch::State::kLost;
     try {
+      if (answered_while_lost) loop_.set_controller_lost(false);
       loop_.Step(target);
+      if (answered_while_lost) loop_.set_controller_lost(true);
       if (watch_) watch_->NoteApplied(loop_.frame().applied_seq);
     } catch (const SolverError& e) {
       std::cerr << "direct_sim run: runtime failure at t = " << loop_.time() << " s: " << e.what()

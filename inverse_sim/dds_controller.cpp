@@ -13,8 +13,6 @@
 namespace nsim {
 namespace {
 
-constexpr double kDirectGrace_s = 3.0;  // direct_sim not alive for this long: lost
-
 class ControllerPump {
  public:
   ControllerPump(ControllerLoop& loop, ControllerRecorder& recorder,
@@ -58,16 +56,27 @@ class ControllerPump {
         info_.ending = "direct_finished";
         return Finish(0);
       }
-      // direct_sim is lost when its writer stays not alive for kDirectGrace_s: a process that
-      // was itself stopped (SIGSTOP) may see the lease expire for a moment when it resumes
+      // direct_sim is lost when its writers stay not alive for direct_timeout: it may be
+      // stalled, and a process that was itself stopped (SIGSTOP) sees the leases expire when
+      // it resumes, before the writers' next messages arrive
       if (seen_direct_ && frames_.health().writers_alive == 0 && !finishing_) {
-        if (direct_gone_since_ < 0) direct_gone_since_ = now;
-        if (now - direct_gone_since_ > kDirectGrace_s) {
-          std::fprintf(stderr, "inverse_sim: direct_sim lost (liveliness lease expired)\n");
+        if (direct_gone_since_ < 0) {
+          direct_gone_since_ = now;
+          ++info_.direct_losses;
+          std::fprintf(stderr,
+                       "inverse_sim: direct_sim not alive (liveliness lease expired); waiting "
+                       "up to %.0f s\n",
+                       options_.direct_timeout);
+        }
+        if (now - direct_gone_since_ > options_.direct_timeout) {
+          std::fprintf(stderr, "inverse_sim: direct_sim lost (not alive for %.1f s)\n",
+                       now - direct_gone_since_);
           info_.ending = "direct_lost";
           return Finish(1);
         }
-      } else {
+      } else if (direct_gone_since_ >= 0) {
+        std::fprintf(stderr, "inverse_sim: direct_sim back after %.2f s\n",
+                     now - direct_gone_since_);
         direct_gone_since_ = -1.0;
       }
       if (InterruptRequested()) {

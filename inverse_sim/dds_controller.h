@@ -19,6 +19,9 @@ struct ControllerPumpOptions {
   bool lockstep = true;
   double timeout = 3600.0;       ///< give up after this long in all (s)
   double start_timeout = 60.0;   ///< give up if direct_sim is not seen within this (s)
+  /// give up when direct_sim's writers stay not alive this long (s): a stalled direct_sim (or
+  /// this process, stopped and resumed, seeing its leases expire) may come back
+  double direct_timeout = 30.0;
   uint64_t scenario_hash = 0;    ///< ours; direct_sim's must equal it
   bool quiet = false;
   /// --ros2: every target also on /nsim/target_pose (messages/ros2.h)

@@ -52,6 +52,11 @@ int RunInverseSim(int argc, char** argv) {
               {"realtime", "lockstep"})
       .Option("timeout", "S", "give up after S seconds in all", "3600")
       .Option("start-timeout", "S", "give up if direct_sim is not seen within S seconds", "60")
+      .Option("direct-timeout", "S",
+              "give up when direct_sim stays not alive (lease expired) for S seconds; it may be "
+              "stalled and come back, and it waits run.takeover_timeout (30 s) for this "
+              "controller",
+              "30")
       .Flag("quiet", "no progress lines")
       .Flag("ros2-io",
             "take markers, robot state and entry point from the ROS 2 topics and publish the "
@@ -72,10 +77,12 @@ int RunInverseSim(int argc, char** argv) {
   options.lockstep = scenario.lockstep;
   options.timeout = cli.GetDouble("timeout");
   options.start_timeout = cli.GetDouble("start-timeout");
+  options.direct_timeout = cli.GetDouble("direct-timeout");
   // a day at most: the longest run is an hour of simulated time
   if (!(options.timeout > 0 && options.timeout <= 86400) ||
-      !(options.start_timeout > 0 && options.start_timeout <= 86400))
-    throw InputError("--timeout and --start-timeout must be in (0, 86400] (s)");
+      !(options.start_timeout > 0 && options.start_timeout <= 86400) ||
+      !(options.direct_timeout > 0 && options.direct_timeout <= 86400))
+    throw InputError("--timeout, --start-timeout and --direct-timeout must be in (0, 86400] (s)");
   options.quiet = cli.GetFlag("quiet");
   options.scenario_hash = scenario.scenario_hash;
   options.transport = transport::TransportFromCli(cli);

@@ -62,6 +62,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
           {"frames_received", info.frames_received},
           {"frames_missing", info.frames_missing},
           {"frames_skipped", info.frames_skipped},
+          {"direct_losses", info.direct_losses},
           {"frames_out_of_order", info.frames_out_of_order},
           {"rejected_frames", n.rejected_frames},
           {"invalid_outputs", n.invalid_outputs},

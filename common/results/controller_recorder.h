@@ -21,6 +21,8 @@ struct ControllerRunInfo {
   std::string transport = "dds";
   std::string ending = "direct_finished";
   uint64_t frames_received = 0, frames_missing = 0, frames_skipped = 0, frames_out_of_order = 0;
+  /// times direct_sim's writers went not alive (it stalled, or this process did)
+  uint64_t direct_losses = 0;
   TimingStat frame_to_target;   ///< wall time from the frame's sending to the target's (s)
   int domain = 0;
   std::string partition;

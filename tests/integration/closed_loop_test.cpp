@@ -208,6 +208,60 @@ TEST(ClosedLoop, AStalledControllerTakesOverAgainAndTheRunIsUnchanged) {
       << "the stall changed the run";
 }
 
+// The patient stalled: direct_sim stopped (SIGSTOP) for 4 s, longer than its 3 s lease. The
+// controller sees it not alive and waits (--direct-timeout, 30 s); direct_sim resumes, each
+// side sees the other back, and in lockstep the run ends exactly as the in-process run.
+TEST(ClosedLoop, AStalledPatientIsWaitedForAndTheRunIsUnchanged) {
+  const fs::path dir = TempDir("closed_loop_patient_stall");
+  const fs::path scenario = WriteScenario(dir, {});
+  Loop loop(dir, "pstall", scenario, {"--duration", "4"}, {"--prediction", "off"});
+  ChildProcess alone(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
+                          (dir / "alone/direct").string(), "--in-process", "--duration", "4",
+                          "--prediction", "off", "--no-video", "--quiet"},
+                         {}),
+                     (dir / "alone.log").string());
+  const fs::path csv = loop.out / "direct/timeseries.csv";
+  ASSERT_TRUE(testing::WaitForRow(csv, [](const std::vector<double>& row) {
+    return !row.empty() && row[0] >= 1.0;
+  })) << loop.direct->Output();
+  loop.direct->Kill(SIGSTOP);
+  std::this_thread::sleep_for(std::chrono::seconds(4));
+  loop.direct->Kill(SIGCONT);
+  ASSERT_EQ(loop.direct->Wait(80.0), 0) << loop.direct->Output() << loop.inverse->Output();
+  EXPECT_EQ(loop.inverse->Wait(20.0), 0) << loop.inverse->Output();
+  ASSERT_EQ(alone.Wait(60.0), 0) << alone.Output();
+  const json i = loop.InverseSummary();
+  EXPECT_EQ(i["ending"], "direct_finished");
+  EXPECT_GE(i["direct_losses"].get<int>(), 1) << loop.inverse->Output();
+  EXPECT_NE(loop.inverse->Output().find("direct_sim back after"), std::string::npos)
+      << loop.inverse->Output();
+  EXPECT_EQ(loop.DirectSummary()["exit"], "completed");
+  EXPECT_TRUE(loop.Timeseries() == ReadText(dir / "alone/direct/timeseries.csv"))
+      << "the stall changed the run";
+}
+
+// A patient that dies: the controller gives up after --direct-timeout and says so.
+TEST(ClosedLoop, AControllerGivesUpOnAKilledPatient) {
+  const fs::path dir = TempDir("closed_loop_patient_kill");
+  const fs::path scenario = WriteScenario(dir, {});
+  Loop loop(dir, "pkill", scenario, {"--duration", "5"},
+            {"--prediction", "off", "--direct-timeout", "2"});
+  const fs::path csv = loop.out / "direct/timeseries.csv";
+  ASSERT_TRUE(testing::WaitForRow(csv, [](const std::vector<double>& row) {
+    return !row.empty() && row[0] >= 0.5;
+  })) << loop.direct->Output();
+  loop.direct->Kill(SIGKILL);
+  const double killed = MonotonicSeconds();
+  EXPECT_EQ(loop.inverse->Wait(30.0), 1) << loop.inverse->Output();
+  // the 3 s lease, then the 2 s of --direct-timeout
+  EXPECT_GT(MonotonicSeconds() - killed, 2.0);
+  const json i = loop.InverseSummary();
+  EXPECT_EQ(i["ending"], "direct_lost");
+  EXPECT_EQ(i["direct_losses"], 1);
+  EXPECT_NE(loop.inverse->Output().find("direct_sim lost (not alive for"), std::string::npos)
+      << loop.inverse->Output();
+}
+
 // A killed controller that no new one replaces: the robot holds to the end. A process that
 // answers every frame but never says "running" (an injector, 45 mm off) cannot take it over.
 TEST(ClosedLoop, KilledControllerMakesTheRobotHold) {
