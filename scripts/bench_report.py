@@ -9,6 +9,7 @@ build's figures when one was run. Standard library only."""
 import argparse
 import glob
 import json
+import math
 import os
 import re
 import sys
@@ -55,7 +56,7 @@ def medians(runs):
             unit = TO_MS[b.get("time_unit", "ns")]
             entry = {"binary": run["binary"], "ms": b["real_time"] * unit,
                      "reps": b.get("repetitions", 1)}
-            for counter in ("p50_ms", "p99_ms", "max_ms", "over_20ms"):
+            for counter in ("p50_ms", "p99_ms", "max_ms", "over_20ms", "dofs"):
                 if counter in b:
                     entry[counter] = b[counter]
             table.setdefault(run["label"], {})[name] = entry
@@ -85,6 +86,27 @@ def fmt_ratio(x):
 
 def ratio(a, b):
     return a / b if a is not None and b else None
+
+
+def growth(rows, prefix):
+    """[(nodes, ms)] of the benchmarks <prefix>/<size> (nodes from the dofs counter when it is
+    there, else the size in the name) and the least-squares exponent p of ms ~ nodes^p
+    (None with fewer than two sizes)."""
+    points = []
+    for name, r in rows.items():
+        size = size_of(name)
+        if name == f"{prefix}/{size}" and size:
+            nodes = r["dofs"] / 3.0 if r.get("dofs") else float(size)
+            points.append((nodes, r["ms"]))
+    points.sort()
+    if len(points) < 2:
+        return points, None
+    xs = [math.log(n) for n, _ in points]
+    ys = [math.log(ms) for _, ms in points]
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    sxx = sum((x - mx) ** 2 for x in xs)
+    p = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx if sxx > 0 else None
+    return points, p
 
 
 def write_markdown(out, table, args, contexts):
@@ -147,6 +169,26 @@ def write_markdown(out, table, args, contexts):
         section(f"Step sequences on two cores (taskset -c {args.two_cores}; the background "
                 "refresh's worker on the second)", "current-2cores",
                 "baseline-2cores" if args.baseline else None, current)
+    scaling = [(prefix, *growth(current, prefix)) for prefix in ("LiverStep", "Solve",
+                                                                  "Refactorize")]
+    if any(len(points) >= 2 for _, points, _ in scaling):
+        lines.append("## Scaling with the mesh size (one core)")
+        lines.append("")
+        lines.append("Median time against the number of nodes (free nodes for the steps: the "
+                     "`dofs` counter / 3), and the exponent p of a least-squares fit "
+                     "time ~ nodes^p over all sizes; between consecutive sizes in brackets.")
+        lines.append("")
+        lines.append("| benchmark | nodes: median | exponent p (consecutive) |")
+        lines.append("|---|---|---|")
+        for prefix, points, p in scaling:
+            if len(points) < 2:
+                continue
+            pairs = [math.log(b[1] / a[1]) / math.log(b[0] / a[0])
+                     for a, b in zip(points, points[1:])]
+            lines.append(f"| `{prefix}` | " +
+                         ", ".join(f"{n:.0f}: {fmt_ms(ms)}" for n, ms in points) +
+                         f" | {p:.2f} (" + ", ".join(f"{x:.2f}" for x in pairs) + ") |")
+        lines.append("")
     with open(os.path.join(out, "bench.md"), "w") as f:
         f.write("\n".join(lines))
 

@@ -1,0 +1,82 @@
+#!/usr/bin/python3
+"""scripts/bench_report.py on made-up Google Benchmark files: the medians of the repetitions
+are the table's, the ratio to the floor (Solve/<size>) is computed in the run, and the growth
+exponent of the scaling section recovers the exponent the times were made with (time =
+c nodes^p, nodes from the dofs counter), between consecutive sizes too. Usage:
+bench_report_test.py SOURCE_DIR"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+
+def bench(name, ms_reps, dofs=None):
+    """Google Benchmark entries: the repetitions' iterations and their median aggregate."""
+    entries = []
+    for ms in ms_reps:
+        entries.append({"name": name, "run_name": name, "run_type": "iteration",
+                        "real_time": ms, "time_unit": "ms"})
+    median = sorted(ms_reps)[len(ms_reps) // 2]
+    aggregate = {"name": name + "_median", "run_name": name, "run_type": "aggregate",
+                 "aggregate_name": "median", "real_time": median, "time_unit": "ms",
+                 "repetitions": len(ms_reps)}
+    if dofs is not None:
+        aggregate["dofs"] = dofs
+    return entries + [aggregate]
+
+
+def main():
+    source = sys.argv[1]
+    failures = []
+
+    def check(ok, what):
+        if not ok:
+            failures.append(what)
+
+    with tempfile.TemporaryDirectory() as out:
+        os.makedirs(os.path.join(out, "raw"))
+        p = 1.3
+        nodes = {"700": 685, "2660": 2656, "10000": 9991, "30000": 30097}
+        benchmarks = []
+        for size, n in nodes.items():
+            ms = 2e-3 * n ** p
+            # repetitions around the median: the median must be taken, not the mean
+            benchmarks += bench(f"LiverStep/{size}", [ms, 0.5 * ms, 3.0 * ms], dofs=3 * n)
+        benchmarks += bench("Solve/2660", [1.5, 1.4, 9.0])
+        with open(os.path.join(out, "raw", "current__fem_bench.json"), "w") as f:
+            json.dump({"context": {"host_name": "test"}, "benchmarks": benchmarks}, f)
+        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                        "--two-cores", "none", out], check=True)
+        md = open(os.path.join(out, "bench.md")).read()
+        check("## Scaling with the mesh size" in md, "a scaling section")
+        row = [l for l in md.splitlines() if l.startswith("| `LiverStep` |")]
+        check(len(row) == 1, "one LiverStep scaling row")
+        if row:
+            check("| 1.30 (1.30, 1.30, 1.30) |" in row[0], f"exponent 1.30 in {row[0]}")
+            check("30097: " in row[0], f"the node count from dofs in {row[0]}")
+        # the floor ratio of LiverStep/2660: median / median of Solve/2660 (1.5 ms)
+        step = [l for l in md.splitlines() if l.startswith("| `LiverStep/2660` |")]
+        expected = 2e-3 * 2656 ** p / 1.5
+        check(step and f"{expected:.3g}x" in step[0], f"x floor {expected:.3g} in {step}")
+        merged = json.load(open(os.path.join(out, "bench.json")))
+        check(len(merged["benchmarks"]) == len(benchmarks), "every entry merged")
+
+    with tempfile.TemporaryDirectory() as out:  # one size: no exponent
+        os.makedirs(os.path.join(out, "raw"))
+        with open(os.path.join(out, "raw", "current__fem_bench.json"), "w") as f:
+            json.dump({"context": {}, "benchmarks": bench("LiverStep/2660", [9.0])}, f)
+        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                        "--two-cores", "none", out], check=True)
+        md = open(os.path.join(out, "bench.md")).read()
+        check("Scaling" not in md, "no scaling section with one size")
+
+    for f in failures:
+        print("FAILED:", f)
+    print("bench_report_test:", "ok" if not failures else f"{len(failures)} failures")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
