@@ -39,7 +39,10 @@ function(nsim_add_test file)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
-  set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "unit;${ARG_LABELS}")
+  # one OpenBLAS / OpenMP thread, as the executables set for themselves (library_threads.h):
+  # CHOLMOD's threads spinning against a parallel test or a batch made a 4 s test take > 300 s
+  set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "unit;${ARG_LABELS}"
+    ENVIRONMENT "OPENBLAS_NUM_THREADS=1;OMP_NUM_THREADS=1;OMP_THREAD_LIMIT=1")
 endfunction()
 
 # nsim_add_benchmark(<file.cpp> DEPS ...)
