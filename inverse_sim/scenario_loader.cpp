@@ -10,6 +10,7 @@
 #include "common/core/yaml_reader.h"
 #include "common/fem/fem_solver.h"
 #include "common/scenario/box_reader.h"
+#include "common/scenario/needle_reader.h"
 #include "common/scenario/shared_scenario.h"
 #include "common/scene/scene_config.h"
 
@@ -83,11 +84,28 @@ void CheckControllerBounds(const InverseScenario& s) {
     CheckAtMost(s.loop.control.joint_steps[j], 1.0, Str("controller.joint_steps[", j, "]"), "rad");
 }
 
+// inverse.bevel: a bevel map, or `patient`: the patient's needle.bevel of the same file (its
+// defaults, a symmetric tip, when the file has none)
+void ReadModelBevel(const YamlReader& inv, const YamlReader& root, BevelConfig* bevel) {
+  if (!inv.Has("bevel")) return;
+  const YamlReader node = inv.Child("bevel");
+  if (node.IsScalar()) {
+    if (node.AsString() != "patient")
+      inv.Fail("bevel", Str("expected a bevel map or 'patient', got '", node.AsString(), "'"));
+    const YamlReader needle = root.OptionalChild("needle");
+    if (!needle.IsNull() && needle.Has("bevel")) ReadBevel(needle.Child("bevel"), bevel);
+    return;
+  }
+  ReadBevel(node, bevel);
+}
+
 // inverse: the liver model; the mesh path relative to the scenario file
-void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario* s) {
+void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::string& path,
+                 InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "constraint_compliance", "friction_coefficient", "anchors"});
+                 "tip_constraint", "constraint_compliance", "friction_coefficient", "anchors",
+                 "bevel"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
   std::filesystem::path mesh = inv.Child("mesh").AsString();
@@ -100,6 +118,7 @@ void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
   inv.Read("friction_coefficient", &s->loop.model.friction_coefficient);
   s->loop.model.anchors = ReadOrientedBoxes(inv, "anchors");
+  ReadModelBevel(inv, root, &s->loop.model.bevel);
   ValidateAs([&] { s->loop.model.Validate(); }, path, "inverse.", "inverse.");
   ValidateAs([&] { CheckInverseBounds(*s); }, path, "", "");
 }
@@ -203,7 +222,7 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   s.shared = ReadSharedScenario(root);
   s.scenario_hash = ScenarioHash(s.shared);
   ApplyShared(s.shared, &s);
-  ReadInverse(root.Child("inverse"), path, &s);
+  ReadInverse(root.Child("inverse"), root, path, &s);
   ReadController(root.Child("controller"), path, &s);
   ReadPrediction(root.OptionalChild("prediction"), path, &s);
   ReadDds(root.OptionalChild("dds"), &s);

@@ -54,6 +54,7 @@ void InverseModelConfig::Validate() const {
   // Coulomb coefficients of needles in soft tissue are 0.05-0.5 (SOFA example: 0.1); 2 is absurd
   CheckRange(friction_coefficient, 0.0, 2.0, "inverse.friction_coefficient", "");
   for (size_t i = 0; i < anchors.size(); ++i) anchors[i].Validate(Str("inverse.anchors[", i, "]"));
+  bevel.Validate("inverse.bevel");
   // a compliance built on the factor lags a background refresh (fem_config.h): unstable
   if (liver.background_refactor && !rest_compliance)
     throw InputError(

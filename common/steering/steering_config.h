@@ -13,6 +13,7 @@
 #include "common/control/path_targets.h"
 #include "common/fem/fem_config.h"
 #include "common/mesh/oriented_box.h"
+#include "common/needle/bevel_tip.h"
 #include "common/needle/rigid_needle.h"
 #include "common/robot/iiwa14.h"
 #include "common/robot/pose_math.h"
@@ -70,6 +71,13 @@ struct InverseModelConfig {
   /// this step's exact system, every column solved again each step). See
   /// SelectConstraintCompliance in common/fem/fem_solver.h.
   bool rest_compliance = false;
+  /// The model needle's bevel tip (YAML inverse.bevel, the keys of the patient's needle.bevel;
+  /// `inverse.bevel: patient` copies the patient's). Enabled: while the tip is in the model
+  /// liver, the Misra tip load (common/needle/bevel_tip.h) acts as the patient's does
+  /// (PatientScene::Step): for the rigid needle the tissue at the tip takes -Q y_B as nodal
+  /// forces, held over the step and computed from the state at its start. Disabled (default):
+  /// a symmetric tip, the model as without the option.
+  BevelConfig bevel;
 
   /// Throws InputError "inverse.<key> must be ..., got ..." for the first invalid field.
   void Validate() const;

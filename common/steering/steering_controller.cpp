@@ -66,7 +66,7 @@ CatchUpReport SteeringController::CatchUp(const SteeringInput& input,
     if (!input.q.allFinite()) throw InputError("steering input: joint angles must be finite");
     X_WF = CalcFlangePose(input.q);
   }
-  const CatchUpReport report = sim_->CatchUp(input.p_WM, X_WF, config);
+  const CatchUpReport report = sim_->CatchUp(input.p_WM, X_WF, config, input.bevel_angle);
   X_WN_step_ = sim_->X_WN();
   return report;
 }
@@ -80,7 +80,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     if (!input.q.allFinite()) throw InputError("steering input: joint angles must be finite");
     X_WF = CalcFlangePose(input.q);
   }
-  out.model = sim_->Step(input.p_WM, X_WF);
+  out.model = sim_->Step(input.p_WM, X_WF, input.bevel_angle);
   out.num_unconverged_solves = out.model.solve.converged ? 0 : 1;
   X_WN_step_ = sim_->X_WN();
   const auto t1 = Clock::now();

@@ -90,6 +90,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   liver.point_spacing = config.point_spacing;
   liver.tip_constraint = config.tip_constraint;
   coupling.tissues = {liver};
+  coupling.bevel = config.bevel;
   coupling_ = std::make_unique<NeedleTissueCoupling>(coupling, std::vector<const TetMesh*>{&mesh_});
   coupling_state_ = coupling_->MakeState();
   ResetRigidNeedle(needle_, X_WF, needle_state_);
@@ -175,7 +176,7 @@ void CatchUpConfig::Validate() const {
 
 CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_WM,
                                           const Eigen::Isometry3d& X_WF,
-                                          const CatchUpConfig& config) {
+                                          const CatchUpConfig& config, double bevel_angle) {
   const auto t0 = std::chrono::steady_clock::now();
   config.Validate();
   if (steps_ > 0) throw std::logic_error("SteeringSimulation::CatchUp after a Step");
@@ -206,7 +207,7 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
     return N * X_NF;
   };
   auto step = [&](const std::vector<Eigen::Vector3d>& markers, const Eigen::Isometry3d& X) {
-    Step(markers, X);
+    Step(markers, X, bevel_angle);
     ++report.steps;
   };
 
@@ -270,7 +271,7 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
 }
 
 SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& p_WM,
-                                            const Eigen::Isometry3d& X_WF) {
+                                            const Eigen::Isometry3d& X_WF, double bevel_angle) {
   if (p_WM.size() != markers_.size()) {
     throw InputError(Str("inverse simulation: expected ", markers_.size(), " markers, got ",
                          p_WM.size()));
@@ -281,7 +282,10 @@ SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& 
   if (!IsRigidTransform(X_WF, 1e-6)) {
     throw InputError("inverse simulation: the flange pose must be a finite rigid transform");
   }
+  if (!std::isfinite(bevel_angle)) throw InputError("inverse simulation: bevel angle not finite");
   SteeringStepReport report;
+  ApplyBevelLoad(bevel_angle);
+  report.bevel_active = !bevel_loads_.empty();
   SetRigidNeedleTarget(needle_, X_WF, needle_state_);
   report.fem = body_->BeginStep();
 
@@ -315,6 +319,25 @@ SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& 
   report.num_rows = set_.num_rows();
   report.liver_phase = coupling_state_.tissues[0].phase;
   return report;
+}
+
+void SteeringSimulation::ApplyBevelLoad(double bevel_angle) {
+  // the last step's load off, this step's from the state at the step start (the coupling after
+  // the last Update, the needle at its end pose), as PatientScene::Step does for its rigid needle
+  for (const auto& [node, f] : bevel_loads_) state_->external_forces.col(node) -= f;
+  bevel_loads_.clear();
+  needle_state_.bevel_angle = bevel_angle;
+  const BevelTipLoad load =
+      coupling_->CalcBevelTipLoad(MakeNeedleView(needle_, needle_state_), coupling_state_);
+  if (!load.active || load.tip_point.tet < 0) return;
+  // a rigid needle cannot take the tip torque: the tissue at the tip takes -Q y_B, spread over
+  // the nodes of its tet by the tip's barycentric weights
+  for (int k = 0; k < 4; ++k) {
+    const int node = mesh_.tets[load.tip_point.tet][k];
+    const Eigen::Vector3d f = -load.tip_point.bary[k] * load.force_for_rigid;
+    state_->external_forces.col(node) += f;
+    bevel_loads_.push_back({node, f});
+  }
 }
 
 SteeringEvaluation SteeringSimulation::EvaluateAt(const Eigen::Isometry3d& X_WF,

@@ -27,6 +27,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "common/constraints/constraint_set.h"
@@ -100,6 +101,7 @@ struct SteeringStepReport {
   ConstraintSolveReport solve;
   int num_rows = 0;
   TissuePhase liver_phase = TissuePhase::kOutside;
+  bool bevel_active = false;  ///< a bevel load acted over the step
 };
 
 class SteeringSimulation {
@@ -113,8 +115,17 @@ class SteeringSimulation {
   SteeringSimulation& operator=(const SteeringSimulation&) = delete;
 
   /// One step: the markers reach p_WM (m, one per configured marker) and the flange X_WF at
-  /// the end of the step. InputError on a wrong marker count or non-finite input.
-  SteeringStepReport Step(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF);
+  /// the end of the step; bevel_angle (rad) is the bevel's roll about the needle axis (used
+  /// with config.bevel enabled). InputError on a wrong marker count or non-finite input.
+  ///
+  /// Bevel (config.bevel.enabled, the tip in the liver): the load of this step is computed from
+  /// the state at its start and held over it (PatientScene::Step); for the rigid needle the
+  /// liver at the tip takes -Q y_B as nodal external forces. The load is part of the free
+  /// motion, so the frozen step (EvaluateAt) keeps it fixed under every perturbation: the
+  /// bevel's load follows the committed state, not the perturbed pose (it changes only with
+  /// the roll and the tip's tissue point, which move little within one step).
+  SteeringStepReport Step(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF,
+                          double bevel_angle = 0.0);
 
   /// Before the first Step, for a needle that may already be in (see the file comment): when
   /// the tip of the needle at X_WF is more than config.min_depth past the path's start along
@@ -124,9 +135,10 @@ class SteeringSimulation {
   /// rotation_per_step per step, and held for config.settle_steps, the markers at p_WM
   /// throughout; otherwise the needle is put at X_WF and nothing else is done (a needle that
   /// starts outside: the model is as built). InputError on a wrong marker count or non-finite
-  /// input; std::logic_error after a Step.
+  /// input; std::logic_error after a Step. bevel_angle: the bevel roll of every catch-up step
+  /// (rad, see Step).
   CatchUpReport CatchUp(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF,
-                        const CatchUpConfig& config = {});
+                        const CatchUpConfig& config = {}, double bevel_angle = 0.0);
 
   /// The end of the last step re-solved with the flange at X_WF (constraint-space solve on the
   /// frozen step; no side effects). Before the first Step: kinematic only (rest tissue).
@@ -159,6 +171,9 @@ class SteeringSimulation {
   int64_t steps() const { return steps_; }
 
  private:
+  // this step's bevel load on the liver (the last one removed); see Step
+  void ApplyBevelLoad(double bevel_angle);
+
   InverseModelConfig config_;
   TetMesh mesh_;
   std::unique_ptr<FemModel> model_;
@@ -174,6 +189,7 @@ class SteeringSimulation {
   std::vector<PathPoint> path_;
   std::vector<SnapshotProbe> probes_;  // one per distinct path reference, path_probe_[i]
   std::vector<int> path_probe_;
+  std::vector<std::pair<int, Eigen::Vector3d>> bevel_loads_;  // (node, force) held this step (N)
   Eigen::Vector3d direction_ = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d start_W_ = Eigen::Vector3d::Zero();  // the path's start (m)
   ConstraintSet set_;

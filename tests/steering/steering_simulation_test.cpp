@@ -13,6 +13,7 @@
 
 #include "common/core/error.h"
 #include "common/mesh/oriented_box.h"
+#include "common/needle/bevel_tip.h"
 #include "common/robot/pose_math.h"
 #include "tests/steering/steering_test_scene.h"
 
@@ -47,7 +48,8 @@ class SteeringSimulationTest : public ::testing::Test {
   // a model advanced by `steps` insertion steps
   std::unique_ptr<SteeringSimulation> Advance(int steps) const {
     auto sim = std::make_unique<SteeringSimulation>(model_, path_, mesh_, X_WF0_);
-    for (int i = 1; i <= steps; ++i) sim->Step(RestMarkers(model_), InsertionPose(X_WF0_, dir_, i));
+    for (int i = 1; i <= steps; ++i)
+      sim->Step(RestMarkers(model_), InsertionPose(X_WF0_, dir_, i), bevel_angle_);
     return sim;
   }
 
@@ -61,6 +63,7 @@ class SteeringSimulationTest : public ::testing::Test {
   SteeringPathConfig path_;
   Eigen::Isometry3d X_WF0_;
   Eigen::Vector3d dir_;
+  double bevel_angle_ = 0.0;  // bevel roll passed to every Step (rad)
 };
 
 // steps that put the tip ~3 cm into the liver (10 mm approach + puncture + 30 mm)
@@ -82,6 +85,7 @@ struct ModelVariant {
   const char* name;
   double friction_coefficient;
   bool anchored;
+  bool bevel = false;  // the bevel tip load on (roll 0.7 rad)
 };
 
 class SteeringSimulationVariantTest : public SteeringSimulationTest,
@@ -90,13 +94,16 @@ class SteeringSimulationVariantTest : public SteeringSimulationTest,
   SteeringSimulationVariantTest() {
     model_.friction_coefficient = GetParam().friction_coefficient;
     if (GetParam().anchored) model_.anchors = {PosteriorAnchor()};
+    model_.bevel.enabled = GetParam().bevel;
+    bevel_angle_ = 0.7;
   }
 };
 
 INSTANTIATE_TEST_SUITE_P(Models, SteeringSimulationVariantTest,
                          ::testing::Values(ModelVariant{"plain", 0.0, false},
                                            ModelVariant{"friction", 0.1, false},
-                                           ModelVariant{"anchored", 0.0, true}),
+                                           ModelVariant{"anchored", 0.0, true},
+                                           ModelVariant{"bevel", 0.0, false, true}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 TEST_F(SteeringSimulationTest, PuncturesTheLiverAndSeedsPoints) {
@@ -145,7 +152,7 @@ TEST_P(SteeringSimulationVariantTest, PerturbedSolveEqualsFullResimulation) {
     const SteeringEvaluation fast = sim->EvaluateAt(X, ws);
     // full path: the same history, the last step with the perturbed flange
     auto full = Advance(kInsideSteps - 1);
-    full->Step(RestMarkers(model_), X);
+    full->Step(RestMarkers(model_), X, bevel_angle_);
     const std::vector<Eigen::Vector3d> reference = full->CalcPathPositions();
     double moved = 0.0;
     for (size_t i = 0; i < reference.size(); ++i) {
@@ -174,6 +181,75 @@ TEST_F(SteeringSimulationTest, EvaluationHasNoSideEffects) {
 }
 
 std::vector<Eigen::Vector3d> BreathingMarkers(const InverseModelConfig& c, int step);
+
+// A disabled bevel changes nothing, whatever roll the steps pass: bit-identical to the model
+// without the option
+TEST_F(SteeringSimulationTest, DisabledBevelIsBitIdentical) {
+  auto plain = Advance(kInsideSteps);
+  InverseModelConfig off = model_;
+  off.bevel.enabled = false;
+  off.bevel.tissue_stiffness = 3e5;  // parameters of a bevel that does not act
+  SteeringSimulation rolled(off, path_, mesh_, X_WF0_);
+  for (int i = 1; i <= kInsideSteps; ++i) {
+    const SteeringStepReport r = rolled.Step(RestMarkers(off), InsertionPose(X_WF0_, dir_, i), 1.3);
+    EXPECT_FALSE(r.bevel_active);
+  }
+  EXPECT_EQ(plain->liver_positions(), rolled.liver_positions());
+  EXPECT_EQ(plain->liver_coupling().points.size(), rolled.liver_coupling().points.size());
+}
+
+// The bevel's transverse load Q y_B (CalcBevelLoads) on the model liver at the tip, rigid
+// needle: the tissue at the tip takes -Q y_B, so it moves along -y_B (the needle, relative to
+// the tissue, towards the bevel side +y_B), by about the point compliance of the liver times Q;
+// rolling the bevel by pi reverses the deflection; with the lateral tip constraint the rows at
+// the same material point take the load, and the tip's material point does not move laterally.
+TEST_F(SteeringSimulationTest, BevelPushesTheTissueAtTheTipAgainstTheBevelSide) {
+  // (a) the tip point free laterally: no tip constraint
+  model_.tip_constraint = false;
+  auto plain = Advance(kInsideSteps);
+  ASSERT_GE(plain->liver_coupling().tip.tet, 0) << "the tip must be in the liver";
+  const TetPoint tip = plain->liver_coupling().tip;
+  const Eigen::Vector3d p_plain = EvalTetPoint(mesh_, plain->liver_positions(), tip);
+  const Eigen::Matrix3d R_WN = plain->X_WN().linear();
+  model_.bevel.enabled = true;
+  const BevelLoads loads = CalcBevelLoads(model_.bevel);
+  ASSERT_GT(loads.q, 0.0);
+  auto deflection = [&](double roll) {
+    bevel_angle_ = roll;
+    auto sim = Advance(kInsideSteps);
+    return Eigen::Vector3d(EvalTetPoint(mesh_, sim->liver_positions(), tip) - p_plain);
+  };
+  const Eigen::Vector3d d0 = deflection(0.0), d_pi = deflection(M_PI);
+  const Eigen::Vector3d y_B = CalcBevelFrame(R_WN, 0.0).col(1);
+  // mostly along -y_B (the force's direction); the needle's rows and the tissue's shape
+  // give the rest
+  EXPECT_LT(d0.dot(y_B), -0.8 * d0.norm()) << d0.transpose();
+  // order of magnitude: a point load Q on an elastic body over a region of the tip tet's size
+  // r moves it by ~ Q (1 + nu) / (2 pi E r) (Boussinesq-Kelvin); within a factor of 10
+  double r = 0.0;
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b)
+      r += (mesh_.X.col(mesh_.tets[tip.tet][a]) - mesh_.X.col(mesh_.tets[tip.tet][b])).norm() / 6;
+  const double E = model_.liver.young_modulus, nu = model_.liver.poisson_ratio;
+  const double estimate = loads.q * (1 + nu) / (2 * M_PI * E * r);
+  EXPECT_GT(d0.norm(), 0.1 * estimate) << "estimate " << estimate << " m";
+  EXPECT_LT(d0.norm(), 10.0 * estimate) << "estimate " << estimate << " m";
+  // the roll by pi reverses it (to the nonlinearity of the response: 20 %)
+  EXPECT_LT((d0 + d_pi).norm(), 0.2 * d0.norm()) << d0.transpose() << " / " << d_pi.transpose();
+
+  // (b) with the tip constraint the load is taken at the same material point by its rows
+  model_.tip_constraint = true;
+  model_.bevel.enabled = false;
+  bevel_angle_ = 0.0;
+  auto held_plain = Advance(kInsideSteps);
+  model_.bevel.enabled = true;
+  auto held = Advance(kInsideSteps);
+  const TetPoint held_tip = held_plain->liver_coupling().tip;
+  ASSERT_GE(held_tip.tet, 0);
+  const Eigen::Vector3d d_held = EvalTetPoint(mesh_, held->liver_positions(), held_tip) -
+                                 EvalTetPoint(mesh_, held_plain->liver_positions(), held_tip);
+  EXPECT_LT(std::abs(d_held.dot(y_B)), 0.1 * d0.norm()) << d_held.transpose();
+}
 
 // The needle's axial friction drags the model's tissue along the needle: the coupling reports
 // friction forces within the Coulomb bound of each point, and the path targets end elsewhere
