@@ -99,13 +99,48 @@ void ReadModelBevel(const YamlReader& inv, const YamlReader& root, BevelConfig* 
   ReadBevel(node, bevel);
 }
 
+// inverse.needle: rigid | flexible | patient, or {type: rigid | flexible, <material keys of the
+// patient's needle section>}; `patient` takes the type and material of this file's needle
+// section (the patient's defaults where it has none: a rigid needle)
+void ReadModelNeedle(const YamlReader& inv, const YamlReader& root, InverseModelConfig* model) {
+  if (!inv.Has("needle")) return;
+  const YamlReader node = inv.Child("needle");
+  auto kind_of = [](int choice) {
+    return choice == 1 ? ModelNeedleKind::kFlexible : ModelNeedleKind::kRigid;
+  };
+  if (node.IsScalar()) {
+    const std::string text = node.AsString();
+    if (text == "rigid" || text == "flexible") {
+      model->needle_kind = kind_of(text == "flexible" ? 1 : 0);
+      return;
+    }
+    if (text != "patient")
+      inv.Fail("needle", Str("expected rigid, flexible, patient or a map, got '", text, "'"));
+    const YamlReader patient = root.OptionalChild("needle");
+    model->needle_kind = ModelNeedleKind::kRigid;
+    if (patient.IsNull()) return;
+    const int type = patient.ReadChoice("type", {"rigid", "flexible"});
+    if (type >= 0) model->needle_kind = kind_of(type);
+    // the patient's flexible needle starts from the same defaults as the model's
+    ReadNeedleMaterial(patient, &model->flexible.needle, &model->flexible);
+    return;
+  }
+  RejectKeysMovedToShared(node, "inverse.needle");  // its geometry is the shared needle's
+  std::vector<std::string> keys = {"type"};
+  keys.insert(keys.end(), NeedleMaterialKeys().begin(), NeedleMaterialKeys().end());
+  node.CheckKeys(keys);
+  const int type = node.ReadChoice("type", {"rigid", "flexible"});
+  if (type >= 0) model->needle_kind = kind_of(type);
+  ReadNeedleMaterial(node, &model->flexible.needle, &model->flexible);
+}
+
 // inverse: the liver model; the mesh path relative to the scenario file
 void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::string& path,
                  InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
                  "tip_constraint", "constraint_compliance", "friction_coefficient", "anchors",
-                 "bevel"});
+                 "bevel", "needle"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
   std::filesystem::path mesh = inv.Child("mesh").AsString();
@@ -119,6 +154,7 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
   inv.Read("friction_coefficient", &s->loop.model.friction_coefficient);
   s->loop.model.anchors = ReadOrientedBoxes(inv, "anchors");
   ReadModelBevel(inv, root, &s->loop.model.bevel);
+  ReadModelNeedle(inv, root, &s->loop.model);
   ValidateAs([&] { s->loop.model.Validate(); }, path, "inverse.", "inverse.");
   ValidateAs([&] { CheckInverseBounds(*s); }, path, "", "");
 }

@@ -13,6 +13,7 @@
 #include "common/control/path_targets.h"
 #include "common/fem/fem_config.h"
 #include "common/mesh/oriented_box.h"
+#include "common/needle/beam_needle.h"
 #include "common/needle/bevel_tip.h"
 #include "common/needle/rigid_needle.h"
 #include "common/robot/iiwa14.h"
@@ -29,8 +30,11 @@ enum class SteeringDof {
 SteeringDof ParseSteeringDof(const std::string& text, const std::string& key);
 const char* ToString(SteeringDof dof);
 
+/// The model's needle: kinematic on the flange, or a beam clamped to it (YAML inverse.needle).
+enum class ModelNeedleKind { kRigid, kFlexible };
+
 /// The liver model of the inverse simulation: its own mesh and material, registered to the
-/// fiducial markers by bilateral constraints, with a rigid needle inside.
+/// fiducial markers by bilateral constraints, with a rigid or flexible needle inside.
 struct InverseModelConfig {
   /// Material, damping and solver of the inverse liver. young_modulus is the nominal (believed)
   /// value; the model uses young_modulus * young_modulus_factor.
@@ -46,8 +50,17 @@ struct InverseModelConfig {
   double young_modulus_factor = 1.0;
   /// Rest positions of the fiducial markers in the liver (m), >= 1, each inside the mesh.
   std::vector<Eigen::Vector3d> markers_W;
-  /// The rigid needle on the flange (geometry, tool offset).
+  /// The needle on the flange (geometry, tool offset; the shared scenario's).
   NeedleConfig needle;
+  /// kRigid (default): the needle is kinematic, at the flange pose. kFlexible: a co-rotational
+  /// beam (common/needle/beam_needle.h) whose base is clamped to the flange pose, a second
+  /// compliant body in the model's constraint problem, as the patient's flexible needle.
+  ModelNeedleKind needle_kind = ModelNeedleKind::kRigid;
+  /// kFlexible: the beam's material and discretization (YAML inverse.needle: {type: flexible,
+  /// young_modulus, poisson_ratio, density, elements, rayleigh_mass, rayleigh_stiffness}, the
+  /// keys of the patient's needle section). Its geometry is `needle`'s and its time step the
+  /// liver's: CalcModelBeamConfig.
+  BeamNeedleConfig flexible;
   /// Liver puncture: axial contact force (N), > 0.
   double puncture_force = 0.3;
   /// Spacing of the trajectory constraint points along the needle path in the liver (m), > 0.
@@ -82,6 +95,10 @@ struct InverseModelConfig {
   /// Throws InputError "inverse.<key> must be ..., got ..." for the first invalid field.
   void Validate() const;
 };
+
+/// The beam of a kFlexible model needle: config.flexible with config.needle's geometry (length,
+/// radius, tool offset, axis) and config.liver's time step.
+BeamNeedleConfig CalcModelBeamConfig(const InverseModelConfig& config);
 
 /// The planned insertion: a straight line from a start point before the entry to the target.
 struct SteeringPathConfig {

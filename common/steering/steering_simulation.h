@@ -13,6 +13,16 @@
 // X_WF'" by a constraint-space solve only, without touching the state (thesis eq. 3.6 / A.2;
 // DESIGN.md "Speed"). EvaluateAt(X_WF) reproduces the committed step.
 //
+// The needle (config.needle_kind): kinematic at the flange pose (rigid), or a co-rotational beam
+// whose base is clamped to the flange pose (flexible, common/needle/beam_needle.h), a second
+// compliant body of the step's constraint problem, with the patient's step protocol
+// (PatientScene::Step): base target, bevel load on the tip node, free motion of both bodies,
+// the coupling's rows on the beam's body points, one solve, commit. Its frozen step captures
+// both bodies and the beam's free-motion sensitivity to the base pose (constraint_snapshot.h:
+// exact for translations when the beam's free shape translates with its base, first order for
+// rotations; the rows on the beam turn with the base); EvaluateAt then reports the bent
+// needle's corrected tip and tip frame.
+//
 // A model built while the needle is already in (a controller started, or restarted, in the
 // middle of an insertion) catches up with CatchUp before its first Step. The tissue's state
 // around the needle depends on where the needle entered it and how it moved since, which no
@@ -38,6 +48,7 @@
 #include "common/fem/fem_state.h"
 #include "common/mesh/tet_mesh.h"
 #include "common/mesh/tet_point.h"
+#include "common/needle/beam_needle.h"
 #include "common/needle/needle_tissue.h"
 #include "common/needle/rigid_needle.h"
 #include "common/steering/constraint_snapshot.h"
@@ -56,6 +67,9 @@ struct PathPoint {
 struct SteeringEvaluation {
   Eigen::Isometry3d X_WN = Eigen::Isometry3d::Identity();  ///< needle pose (base frame N)
   Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();        ///< needle tip (m)
+  /// Tip frame (z = the needle's direction at the tip): X_WN's rotation for the rigid needle,
+  /// the beam's tip node for the flexible one.
+  Eigen::Matrix3d R_WTip = Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector3d> p_WPath;                    ///< every path target (m)
   ConstraintSolveReport solve;
 };
@@ -158,9 +172,15 @@ class SteeringSimulation {
   const FemModel& liver_model() const { return *model_; }
   /// Markers as liver material points.
   const std::vector<TetPoint>& markers() const { return markers_; }
-  /// The needle pose at the end of the last step.
+  /// The needle pose at the end of the last step (flexible: its base frame).
   const Eigen::Isometry3d& X_WN() const { return needle_state_.X_WN_end; }
   const RigidNeedleModel& needle() const { return needle_; }
+  /// The flexible needle's state, nullptr for a rigid needle.
+  const BeamNeedleState* beam_needle() const { return beam_state_.get(); }
+  /// The needle tip (m) and tip frame (z along the needle at the tip) at the end of the last
+  /// step.
+  Eigen::Vector3d CalcTipPosition() const;
+  Eigen::Matrix3d CalcTipFrame() const;
   /// Liver coupling state (phase, points) after the last step.
   const TissueCouplingState& liver_coupling() const { return coupling_state_.tissues[0]; }
   bool liver_punctured() const;
@@ -171,8 +191,10 @@ class SteeringSimulation {
   int64_t steps() const { return steps_; }
 
  private:
-  // this step's bevel load on the liver (the last one removed); see Step
+  // this step's bevel load on the liver or the beam's tip (the last one removed); see Step
   void ApplyBevelLoad(double bevel_angle);
+  // the needle straight at the flange pose X_WF, at rest, no bevel load on it
+  void ResetNeedle(const Eigen::Isometry3d& X_WF);
 
   InverseModelConfig config_;
   TetMesh mesh_;
@@ -181,7 +203,17 @@ class SteeringSimulation {
   std::unique_ptr<FemState> state_;
   std::unique_ptr<FemConstraintBody> body_;
   RigidNeedleModel needle_;
-  RigidNeedleState needle_state_;
+  RigidNeedleState needle_state_;  // the needle (rigid) or its base frame (flexible)
+  // flexible needle (config.needle_kind kFlexible), else null
+  std::unique_ptr<BeamNeedleModel> beam_model_;
+  std::unique_ptr<BeamNeedleState> beam_state_;
+  std::unique_ptr<BeamNeedleBody> beam_body_;
+  Eigen::Vector3d beam_tip_force_ = Eigen::Vector3d::Zero();   // bevel load held (N)
+  Eigen::Vector3d beam_tip_torque_ = Eigen::Vector3d::Zero();  // (N m)
+  // the frozen step's bodies with a beam: the liver (probes_) and the beam (tip position and
+  // tip rotation increment as probes, its free-motion sensitivity)
+  std::vector<SnapshotBody> snapshot_bodies_;
+  Eigen::Matrix3d snapshot_R_WTip_start_ = Eigen::Matrix3d::Identity();  // beam tip at capture
   std::unique_ptr<NeedleTissueCoupling> coupling_;
   NeedleCouplingState coupling_state_;
   std::vector<TetPoint> markers_;

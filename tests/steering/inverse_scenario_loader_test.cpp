@@ -98,5 +98,53 @@ TEST(InverseScenarioLoaderTest, BadBevelValuesNameTheKey) {
   EXPECT_NE(word.find("expected a bevel map or 'patient'"), std::string::npos) << word;
 }
 
+TEST(InverseScenarioLoaderTest, NeedleIsRigidByDefault) {
+  const InverseScenario s = Load(DefaultText());
+  EXPECT_EQ(s.loop.model.needle_kind, ModelNeedleKind::kRigid);
+}
+
+TEST(InverseScenarioLoaderTest, ReadsTheFlexibleModelNeedle) {
+  const InverseScenario word = Load(Edited(DefaultText(), kInverseKey, "  needle: flexible\n" + kInverseKey));
+  EXPECT_EQ(word.loop.model.needle_kind, ModelNeedleKind::kFlexible);
+  EXPECT_EQ(word.loop.model.flexible.needle.young_modulus, MakeFlexibleNeedleConfig().young_modulus);
+  const InverseScenario map = Load(Edited(
+      DefaultText(), kInverseKey,
+      "  needle: {type: flexible, young_modulus: 2.0e11, elements: 12, rayleigh_mass: 0.5}\n" +
+          kInverseKey));
+  EXPECT_EQ(map.loop.model.needle_kind, ModelNeedleKind::kFlexible);
+  EXPECT_EQ(map.loop.model.flexible.needle.young_modulus, 2e11);
+  EXPECT_EQ(map.loop.model.flexible.num_elements, 12);
+  EXPECT_EQ(map.loop.model.flexible.rayleigh_mass, 0.5);
+  // the beam's geometry and step are the shared needle's and the model liver's
+  const BeamNeedleConfig beam = CalcModelBeamConfig(map.loop.model);
+  EXPECT_EQ(beam.needle.length, map.shared.needle_length);
+  EXPECT_EQ(beam.time_step, map.loop.model.liver.time_step);
+}
+
+TEST(InverseScenarioLoaderTest, PatientNeedleCopiesTheNeedleSection) {
+  std::string text = Edited(DefaultText(), "  type: rigid                # rigid", "  type: flexible  # rigid");
+  text = Edited(text, kInverseKey, "  needle: patient\n" + kInverseKey);
+  const InverseScenario s = Load(text);
+  EXPECT_EQ(s.loop.model.needle_kind, ModelNeedleKind::kFlexible);
+  EXPECT_EQ(s.loop.model.flexible.needle.young_modulus, 200e9);  // needle.young_modulus
+}
+
+TEST(InverseScenarioLoaderTest, BadNeedleValuesNameTheKey) {
+  auto error = [&](const std::string& value) {
+    return LoadError(Edited(DefaultText(), kInverseKey, "  needle: " + value + "\n" + kInverseKey));
+  };
+  const std::string word = error("bendy");
+  EXPECT_NE(word.find("expected rigid, flexible, patient or a map"), std::string::npos) << word;
+  const std::string elements = error("{type: flexible, elements: 0}");
+  EXPECT_NE(elements.find("inverse.needle.num_elements must be >= 1"), std::string::npos)
+      << elements;
+  const std::string modulus = error("{type: flexible, young_modulus: -1}");
+  EXPECT_NE(modulus.find("inverse.needle.young_modulus"), std::string::npos) << modulus;
+  const std::string moved = error("{length: 0.2}");
+  EXPECT_NE(moved.find("moved to shared.needle.length"), std::string::npos) << moved;
+  const std::string typo = error("{type: flexible, elemnts: 3}");
+  EXPECT_NE(typo.find("elemnts"), std::string::npos) << typo;
+}
+
 }  // namespace
 }  // namespace nsim
