@@ -165,7 +165,10 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight", "null_space_gain",
-                 "joint_limit_margin"});
+                 "joint_limit_margin", "alignment"});
+  const int alignment = ctl.ReadChoice("alignment", {"tip", "base"});
+  if (alignment >= 0)
+    s->loop.control.alignment = alignment == 0 ? AlignmentReference::kTip : AlignmentReference::kBase;
   ctl.Read("null_space_gain", &s->loop.control.null_space_gain);
   ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
   std::string dof;

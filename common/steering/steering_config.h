@@ -112,6 +112,13 @@ struct SteeringPathConfig {
   void Validate() const;
 };
 
+/// Which needle direction the alignment objective e_a (eq. 3.4) compares with the planned one.
+/// The same for a rigid needle; they differ for a flexible one, bent in the tissue.
+enum class AlignmentReference {
+  kTip,   ///< the direction at the tip (the bent needle's)
+  kBase,  ///< the direction at the base (the flange's needle axis)
+};
+
 /// Jacobian, inverse and law settings.
 struct SteeringControlConfig {
   SteeringDof dof = SteeringDof::kCartesian6;
@@ -132,6 +139,13 @@ struct SteeringControlConfig {
     return c;
   }();
 
+  /// e_a's needle direction (YAML controller.alignment: tip | base). With a flexible model
+  /// needle held laterally at its tip by the tissue, a lateral flange motion hardly moves the
+  /// tip (its e_p column is a few % of the rigid needle's) but turns the tip's direction
+  /// (~10 rad/m): aligning the tip's direction then asks for large lateral motions that bend
+  /// the needle; aligning the base keeps e_a's rows those of a rigid needle (README, flexible
+  /// model needle).
+  AlignmentReference alignment = AlignmentReference::kTip;
   /// Include e_e (eq. 3.5) in phase 3 even when the skin entry is unknown, using the liver
   /// entry point (scenes without a skin).
   bool liver_entry_objective = true;

@@ -48,7 +48,11 @@ Eigen::VectorXd SteeringController::CalcObjectives(const SteeringEvaluation& eva
                                                    InsertionPhase phase) const {
   ObjectiveValues values;
   values.e_p = CalcPositionObjective(eval.p_WPath[path_index_], eval.p_WTip);
-  values.e_a = CalcAngleObjective(eval.R_WTip.col(2), sim_->path_direction());
+  // the needle's direction at its tip (the bent needle's) or at its base (the flange's axis)
+  const Eigen::Vector3d z = control_.alignment == AlignmentReference::kTip
+                                ? Eigen::Vector3d(eval.R_WTip.col(2))
+                                : Eigen::Vector3d(eval.X_WN.linear().col(2));
+  values.e_a = CalcAngleObjective(z, sim_->path_direction());
   if (entry_known_) {
     // the entry point stays on the needle: it moves rigidly with the perturbed needle
     const Eigen::Vector3d p_WC = eval.X_WN * (X_WN_step_.inverse() * p_WC_);

@@ -129,6 +129,15 @@ TEST(InverseScenarioLoaderTest, PatientNeedleCopiesTheNeedleSection) {
   EXPECT_EQ(s.loop.model.flexible.needle.young_modulus, 200e9);  // needle.young_modulus
 }
 
+TEST(InverseScenarioLoaderTest, ReadsTheAlignmentReference) {
+  EXPECT_EQ(Load(DefaultText()).loop.control.alignment, AlignmentReference::kTip);
+  const std::string key = "  compensate_in_flight: true";
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "  alignment: base\n" + key)).loop.control.alignment,
+            AlignmentReference::kBase);
+  const std::string bad = LoadError(Edited(DefaultText(), key, "  alignment: middle\n" + key));
+  EXPECT_NE(bad.find("alignment"), std::string::npos) << bad;
+}
+
 TEST(InverseScenarioLoaderTest, BadNeedleValuesNameTheKey) {
   auto error = [&](const std::string& value) {
     return LoadError(Edited(DefaultText(), kInverseKey, "  needle: " + value + "\n" + kInverseKey));
