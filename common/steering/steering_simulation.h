@@ -134,10 +134,12 @@ class SteeringSimulation {
   ///
   /// Bevel (config.bevel.enabled, the tip in the liver): the load of this step is computed from
   /// the state at its start and held over it (PatientScene::Step); for the rigid needle the
-  /// liver at the tip takes -Q y_B as nodal external forces. The load is part of the free
-  /// motion, so the frozen step (EvaluateAt) keeps it fixed under every perturbation: the
-  /// bevel's load follows the committed state, not the perturbed pose (it changes only with
-  /// the roll and the tip's tissue point, which move little within one step).
+  /// liver at the tip takes -Q y_B as nodal external forces, for the flexible one the beam's
+  /// tip node takes Misra's load (config.bevel.mode: the torque M x_B by default). The load is
+  /// part of the free motion, so the frozen step (EvaluateAt) keeps it fixed under every
+  /// perturbation: the bevel's load follows the committed state, not the perturbed pose (it
+  /// changes only with the roll, the tip frame and the tip's tissue point, which move little
+  /// within one step).
   SteeringStepReport Step(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF,
                           double bevel_angle = 0.0);
 
