@@ -4,6 +4,7 @@
 #include "common/fem/fem_solver.h"
 #include "common/mesh/gmsh_reader.h"
 #include "common/scenario/box_reader.h"
+#include "common/scenario/needle_reader.h"
 #include "common/scenario/shared_scenario.h"
 
 namespace nsim::direct_sections {
@@ -119,33 +120,18 @@ void ReadBreathing(const YamlReader& node, uint64_t seed, BreathingConfig* b) {
 
 void ReadNeedle(const YamlReader& node, SceneNeedleConfig* n) {
   RejectKeysMovedToShared(node, "needle");
-  node.CheckKeys({"type", "young_modulus", "poisson_ratio", "density", "elements", "rayleigh_mass",
-                  "rayleigh_stiffness", "skin", "liver", "bevel"});
+  std::vector<std::string> keys = {"type"};
+  keys.insert(keys.end(), NeedleMaterialKeys().begin(), NeedleMaterialKeys().end());
+  keys.insert(keys.end(), {"skin", "liver", "bevel"});
+  node.CheckKeys(keys);
   const int type = node.ReadChoice("type", {"rigid", "flexible"});
   if (type >= 0) n->kind = type == 0 ? NeedleKind::kRigid : NeedleKind::kFlexible;
   NeedleConfig& g = n->kind == NeedleKind::kRigid ? n->rigid : n->flexible.needle;
-  node.Read("young_modulus", &g.young_modulus);
-  node.Read("poisson_ratio", &g.poisson_ratio);
-  node.Read("density", &g.density);
-  node.Read("elements", &n->flexible.num_elements);
-  node.Read("rayleigh_mass", &n->flexible.rayleigh_mass);
-  node.Read("rayleigh_stiffness", &n->flexible.rayleigh_stiffness);
+  ReadNeedleMaterial(node, &g, &n->flexible);
   if (node.Has("skin")) ReadTissueCoupling(node.Child("skin"), &n->coupling.tissues[kSkinTissue]);
   if (node.Has("liver"))
     ReadTissueCoupling(node.Child("liver"), &n->coupling.tissues[kLiverTissue]);
-  if (node.Has("bevel")) {
-    const YamlReader bevel = node.Child("bevel");
-    bevel.CheckKeys(
-        {"enabled", "diameter", "bevel_angle", "beta_over_alpha", "tissue_stiffness", "mode"});
-    BevelConfig& b = n->coupling.bevel;
-    bevel.Read("enabled", &b.enabled);
-    bevel.Read("diameter", &b.diameter);
-    bevel.Read("bevel_angle", &b.bevel_angle);
-    bevel.Read("beta_over_alpha", &b.beta_over_alpha);
-    bevel.Read("tissue_stiffness", &b.tissue_stiffness);
-    const int mode = bevel.ReadChoice("mode", {"torque", "force"});
-    if (mode >= 0) b.mode = mode == 0 ? BevelLoadMode::kTorque : BevelLoadMode::kForce;
-  }
+  if (node.Has("bevel")) ReadBevel(node.Child("bevel"), &n->coupling.bevel);
 }
 
 void ReadRobot(const YamlReader& node, RobotDriverConfig* r) {

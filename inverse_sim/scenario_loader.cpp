@@ -10,6 +10,7 @@
 #include "common/core/yaml_reader.h"
 #include "common/fem/fem_solver.h"
 #include "common/scenario/box_reader.h"
+#include "common/scenario/needle_reader.h"
 #include "common/scenario/shared_scenario.h"
 #include "common/scene/scene_config.h"
 
@@ -83,11 +84,63 @@ void CheckControllerBounds(const InverseScenario& s) {
     CheckAtMost(s.loop.control.joint_steps[j], 1.0, Str("controller.joint_steps[", j, "]"), "rad");
 }
 
+// inverse.bevel: a bevel map, or `patient`: the patient's needle.bevel of the same file (its
+// defaults, a symmetric tip, when the file has none)
+void ReadModelBevel(const YamlReader& inv, const YamlReader& root, BevelConfig* bevel) {
+  if (!inv.Has("bevel")) return;
+  const YamlReader node = inv.Child("bevel");
+  if (node.IsScalar()) {
+    if (node.AsString() != "patient")
+      inv.Fail("bevel", Str("expected a bevel map or 'patient', got '", node.AsString(), "'"));
+    const YamlReader needle = root.OptionalChild("needle");
+    if (!needle.IsNull() && needle.Has("bevel")) ReadBevel(needle.Child("bevel"), bevel);
+    return;
+  }
+  ReadBevel(node, bevel);
+}
+
+// inverse.needle: rigid | flexible | patient, or {type: rigid | flexible, <material keys of the
+// patient's needle section>}; `patient` takes the type and material of this file's needle
+// section (the patient's defaults where it has none: a rigid needle)
+void ReadModelNeedle(const YamlReader& inv, const YamlReader& root, InverseModelConfig* model) {
+  if (!inv.Has("needle")) return;
+  const YamlReader node = inv.Child("needle");
+  auto kind_of = [](int choice) {
+    return choice == 1 ? ModelNeedleKind::kFlexible : ModelNeedleKind::kRigid;
+  };
+  if (node.IsScalar()) {
+    const std::string text = node.AsString();
+    if (text == "rigid" || text == "flexible") {
+      model->needle_kind = kind_of(text == "flexible" ? 1 : 0);
+      return;
+    }
+    if (text != "patient")
+      inv.Fail("needle", Str("expected rigid, flexible, patient or a map, got '", text, "'"));
+    const YamlReader patient = root.OptionalChild("needle");
+    model->needle_kind = ModelNeedleKind::kRigid;
+    if (patient.IsNull()) return;
+    const int type = patient.ReadChoice("type", {"rigid", "flexible"});
+    if (type >= 0) model->needle_kind = kind_of(type);
+    // the patient's flexible needle starts from the same defaults as the model's
+    ReadNeedleMaterial(patient, &model->flexible.needle, &model->flexible);
+    return;
+  }
+  RejectKeysMovedToShared(node, "inverse.needle");  // its geometry is the shared needle's
+  std::vector<std::string> keys = {"type"};
+  keys.insert(keys.end(), NeedleMaterialKeys().begin(), NeedleMaterialKeys().end());
+  node.CheckKeys(keys);
+  const int type = node.ReadChoice("type", {"rigid", "flexible"});
+  if (type >= 0) model->needle_kind = kind_of(type);
+  ReadNeedleMaterial(node, &model->flexible.needle, &model->flexible);
+}
+
 // inverse: the liver model; the mesh path relative to the scenario file
-void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario* s) {
+void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::string& path,
+                 InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "constraint_compliance", "friction_coefficient", "anchors"});
+                 "tip_constraint", "constraint_compliance", "friction_coefficient", "anchors",
+                 "bevel", "needle"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
   std::filesystem::path mesh = inv.Child("mesh").AsString();
@@ -100,6 +153,8 @@ void ReadInverse(const YamlReader& inv, const std::string& path, InverseScenario
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
   inv.Read("friction_coefficient", &s->loop.model.friction_coefficient);
   s->loop.model.anchors = ReadOrientedBoxes(inv, "anchors");
+  ReadModelBevel(inv, root, &s->loop.model.bevel);
+  ReadModelNeedle(inv, root, &s->loop.model);
   ValidateAs([&] { s->loop.model.Validate(); }, path, "inverse.", "inverse.");
   ValidateAs([&] { CheckInverseBounds(*s); }, path, "", "");
 }
@@ -110,7 +165,10 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight", "null_space_gain",
-                 "joint_limit_margin"});
+                 "joint_limit_margin", "alignment"});
+  const int alignment = ctl.ReadChoice("alignment", {"tip", "base"});
+  if (alignment >= 0)
+    s->loop.control.alignment = alignment == 0 ? AlignmentReference::kTip : AlignmentReference::kBase;
   ctl.Read("null_space_gain", &s->loop.control.null_space_gain);
   ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
   std::string dof;
@@ -203,7 +261,7 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   s.shared = ReadSharedScenario(root);
   s.scenario_hash = ScenarioHash(s.shared);
   ApplyShared(s.shared, &s);
-  ReadInverse(root.Child("inverse"), path, &s);
+  ReadInverse(root.Child("inverse"), root, path, &s);
   ReadController(root.Child("controller"), path, &s);
   ReadPrediction(root.OptionalChild("prediction"), path, &s);
   ReadDds(root.OptionalChild("dds"), &s);

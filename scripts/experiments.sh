@@ -2,10 +2,12 @@
 # Batch experiments (thesis §5.2): N closed-loop insertions, each with its own breathing seed and
 # the patient liver's Young's modulus drawn uniformly within +-13 % of the nominal value (the
 # controller's model keeps the nominal one), run in lockstep (reproducible) for every setting:
-# prediction on and off, and optionally bevel on/off and 6-DoF Cartesian vs 7-DoF iiwa.
+# prediction on and off, and optionally bevel on/off, 6-DoF Cartesian vs 7-DoF iiwa, the bevel in
+# the controller's model too, and the flexible needle (patient and model).
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
 #                          [--latency-steps N[,N...]] [--gain K] [--bevel] [--dof7]
+#                          [--model-bevel] [--flexible]
 #                          [--settings REGEX] [--no-build] [--transport in_process|dds] [--jobs N] [--timeout S]
 #                          [--hosts H1,H2,... | --slurm] [--dry-run]
 #   scripts/experiments.sh --collect DIR
@@ -28,7 +30,11 @@
 # and off, 6-DoF and, with --dof7, 7-DoF). `--collect DIR` on a sweep folder rebuilds them.
 # --settings REGEX keeps only the settings whose names match (bash regex, anchored: e.g.
 # 'dof7_.*' for the 7-DoF cells alone, 'pred_off' for one setting); the names are pred_on,
-# pred_off, bevel_pred_on/off (--bevel), dof7_pred_on/off (--dof7).
+# pred_off, bevel_pred_on/off (--bevel), dof7_pred_on/off (--dof7), mbevel_pred_on/off
+# (--model-bevel: the patient's bevel on and the controller's model with the same bevel,
+# inverse.bevel: patient), flex_pred_on/off (--flexible: the patient's needle flexible and the
+# model's the same, inverse.needle: patient) and, with --bevel as well, flex_bevel_pred_on/off
+# (both flexible, both beveled).
 # --gain K sets the control gains k (eq. 3.9 / A.3) of every setting (the scenarios' default,
 # 0.2, serves every latency with controller.compensate_in_flight: README, "Control under
 # latency").
@@ -68,6 +74,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=20
 latency=1; gain=""; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
+model_bevel=0; flexible=0
 transport=in_process; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
 die() { echo "experiments: $*" >&2; exit 2; }
@@ -86,6 +93,8 @@ while [ $# -gt 0 ]; do
     --gain) gain="$2"; shift 2 ;;
     --bevel) bevel=1; shift ;;
     --dof7) dof7=1; shift ;;
+    --model-bevel) model_bevel=1; shift ;;
+    --flexible) flexible=1; shift ;;
     --settings) only="$2"; shift 2 ;;
     --transport) transport="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
@@ -278,6 +287,8 @@ if [[ "$latency" == *,* ]]; then
   [ -z "$gain" ] || sub+=(--gain "$gain")
   [ "$bevel" = 0 ] || sub+=(--bevel)
   [ "$dof7" = 0 ] || sub+=(--dof7)
+  [ "$model_bevel" = 0 ] || sub+=(--model-bevel)
+  [ "$flexible" = 0 ] || sub+=(--flexible)
   [ -z "$only" ] || sub+=(--settings "$only")
   [ -z "$jobs" ] || sub+=(--jobs "$jobs")
   [ -z "$hosts" ] || sub+=(--hosts "$hosts")
@@ -346,6 +357,26 @@ if [ "$bevel" = 1 ]; then
   bev="$(variant bevel -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  bevel: {enabled:\) false|\1 true|')"
   grep -q "bevel: {enabled: true" "$bev" || die "cannot turn the bevel on in $scenario"
   settings+=("bevel_pred_on|$bev|--prediction on" "bevel_pred_off|$bev|--prediction off")
+fi
+# the controller's model: the patient's bevel and needle (a line after `inverse:`)
+model_bevel_expr=(-e 's|^inverse:.*$|&\n  bevel: patient|')
+model_needle_expr=(-e 's|^inverse:.*$|&\n  needle: patient|')
+flexible_expr=(-e 's|^\(  type:\) rigid |\1 flexible |')
+if [ "$model_bevel" = 1 ]; then
+  mbev="$(variant mbevel -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
+    "${model_bevel_expr[@]}")"
+  grep -q "^  bevel: patient" "$mbev" || die "cannot give the model the bevel in $scenario (no 'inverse:' line)"
+  settings+=("mbevel_pred_on|$mbev|--prediction on" "mbevel_pred_off|$mbev|--prediction off")
+fi
+if [ "$flexible" = 1 ]; then
+  flex="$(variant flex -e 's|^\(  mode:\).*|\1 lockstep|' "${flexible_expr[@]}" "${model_needle_expr[@]}")"
+  grep -q "^  type: flexible" "$flex" || die "cannot make the needle flexible in $scenario (no '  type: rigid' line)"
+  settings+=("flex_pred_on|$flex|--prediction on" "flex_pred_off|$flex|--prediction off")
+  if [ "$bevel" = 1 ]; then
+    fbev="$(variant flex_bevel -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
+      "${flexible_expr[@]}" "${model_needle_expr[@]}" "${model_bevel_expr[@]}")"
+    settings+=("flex_bevel_pred_on|$fbev|--prediction on" "flex_bevel_pred_off|$fbev|--prediction off")
+  fi
 fi
 if [ "$dof7" = 1 ]; then
   iiwa="$(variant iiwa -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  type:\) cartesian |\1 iiwa |')"

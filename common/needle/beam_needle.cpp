@@ -23,6 +23,16 @@ Eigen::Matrix3d ExpRotation(const Eigen::Vector3d& phi) {
   return Eigen::AngleAxisd(angle, phi / angle).toRotationMatrix();
 }
 
+// inverse left Jacobian of SO(3): log(exp(d) exp(phi)) = phi + JlInv(phi) d + O(d^2)
+Eigen::Matrix3d CalcLeftJacobianInverse(const Eigen::Vector3d& phi) {
+  const double t = phi.norm();
+  Eigen::Matrix3d S;
+  S << 0.0, -phi.z(), phi.y(), phi.z(), 0.0, -phi.x(), -phi.y(), phi.x(), 0.0;
+  Eigen::Matrix3d J = Eigen::Matrix3d::Identity() - 0.5 * S;
+  if (t > 1e-8) J += (1.0 / (t * t) - (1.0 + std::cos(t)) / (2.0 * t * std::sin(t))) * S * S;
+  return J;
+}
+
 // co-rotated frame of element (i, j): z along the chord, x from the nodes' mean x director
 Eigen::Matrix3d CalcElementFrame(const Eigen::Vector3d& xi, const Eigen::Vector3d& xj,
                                  const Eigen::Matrix3d& Ri, const Eigen::Matrix3d& Rj,
@@ -370,6 +380,33 @@ void BeamNeedleBody::Commit(const Eigen::Matrix3Xd* dx) {
   for (int k = 1; k < n_; ++k) s.R[k] = Eigen::Quaterniond(s.R[k]).normalized().toRotationMatrix();
   s.time += h_;
   in_step_ = false;
+}
+
+void BeamNeedleBody::CalcFreeMotionSensitivity(Eigen::MatrixXd& S) const {
+  NSIM_CHECK(in_step_, "CalcFreeMotionSensitivity outside a step (call BeginStep first)");
+  const BeamNeedleState& s = state_;
+  S.setZero(6 * n_, 6);
+  const Eigen::Matrix3d J =
+      CalcLeftJacobianInverse(LogRotation(s.X_WBase_target.linear() * s.R[0].transpose()));
+  for (int j = 0; j < 6; ++j) {
+    // h d(dv_0) for a unit base perturbation e_j; the base node follows it exactly
+    Vector6d h_dv0 = Vector6d::Zero();
+    if (j < 3) {
+      h_dv0[j] = 1.0;
+    } else {
+      h_dv0.tail<3>() = J.col(j - 3);
+    }
+    S.block<3, 1>(0, j) = h_dv0.head<3>();
+    S.block<3, 1>(3 * n_, j) = h_dv0.tail<3>();
+    // free nodes: h d(dv_f) = -A_ff^-1 A_f0 h d(dv_0), only node 1 couples to the base
+    rhs_.setZero();
+    rhs_.head<6>() = -upper_[0].transpose() * h_dv0;
+    SolveReduced(rhs_);
+    for (int k = 1; k < n_; ++k) {
+      S.block<3, 1>(3 * k, j) = rhs_.segment<3>(6 * (k - 1));
+      S.block<3, 1>(3 * (n_ + k), j) = rhs_.segment<3>(6 * (k - 1) + 3);
+    }
+  }
 }
 
 Eigen::Matrix3d BeamNeedleBody::CalcFreeTipFrame() const {

@@ -154,6 +154,18 @@ class BeamNeedleBody : public ConstraintBody {
   /// Orientation of the tip node after the free motion, exp(phi_free) R (z = needle direction).
   Eigen::Matrix3d CalcFreeTipFrame() const;
 
+  /// Sensitivity of this step's free motion to the base target (after BeginStep): the free
+  /// motion is A_ff dv_f = b_f - A_f0 dv_0 with A, b from the step start and
+  /// dv_0 = [(p_target - x_0) / h - v_0; log(R_target R_0^T) / h - w_0], so it is affine in
+  /// p_target and, to first order, in a rotation R_target' = exp(dtheta) R_target:
+  ///   d free = S [dp; dtheta],  S = 3 (2n) x 6, the ConstraintBody's pseudo-node rows
+  /// (positions of nodes 0..n-1 (m), then the rotation increments phi of nodes 0..n-1 (rad)),
+  /// columns dp (m) then dtheta (rad), world axes. Column j: dv_0 = h^-1 [I; J_l^-1(phi_0)] e_j
+  /// (J_l^-1 the inverse left Jacobian of SO(3) at phi_0 = log(R_target R_0^T): exact for the
+  /// first order), the free nodes' -A_ff^-1 A_f0 dv_0 by the step's block Cholesky (6 reduced
+  /// solves), times h. Exact for translations; rotations: O(|dtheta|^2).
+  void CalcFreeMotionSensitivity(Eigen::MatrixXd& S) const;
+
   const BeamNeedleModel& model() const { return model_; }
   BeamNeedleState& state() { return state_; }
   const BeamNeedleState& state() const { return state_; }

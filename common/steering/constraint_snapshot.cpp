@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "common/core/error.h"
+#include "common/robot/pose_math.h"
 
 namespace nsim {
 namespace {
@@ -22,11 +23,33 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
                                  int body, const std::vector<char>& moves_with_needle,
                                  const Eigen::Isometry3d& X_WN,
                                  const std::vector<SnapshotProbe>& probes) {
+  SnapshotBody captured;
+  captured.body = body;
+  captured.probes = probes;
+  Capture(set, solver, {captured}, moves_with_needle, X_WN);
+}
+
+void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolver& solver,
+                                 const std::vector<SnapshotBody>& bodies,
+                                 const std::vector<char>& moves_with_needle,
+                                 const Eigen::Isometry3d& X_WN) {
   NSIM_CHECK(static_cast<int>(moves_with_needle.size()) == set.num_points(),
              "moves_with_needle must have one entry per point");
   NSIM_CHECK(solver.W().rows() == set.num_rows(), "Capture needs the Assemble of the same set");
   X_WN_ = X_WN;
   const Eigen::Isometry3d X_NW = X_WN.inverse();
+  // which captured body each set body is
+  std::vector<int> captured_of(set.num_bodies(), -1);
+  for (size_t c = 0; c < bodies.size(); ++c) {
+    NSIM_CHECK(bodies[c].body >= 0 && bodies[c].body < set.num_bodies(),
+               "captured body index out of range");
+    NSIM_CHECK(bodies[c].free_sensitivity.size() == 0 ||
+                   (bodies[c].free_sensitivity.rows() ==
+                        3 * set.body(bodies[c].body).free_positions().cols() &&
+                    bodies[c].free_sensitivity.cols() == 6),
+               "free_sensitivity must be 3 #nodes x 6");
+    captured_of[bodies[c].body] = static_cast<int>(c);
+  }
 
   // body points used by the rows, numbered in order of first use
   std::vector<int> body_point_of(set.num_points(), -1);
@@ -60,52 +83,78 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
         captured.p_N = X_NW * point.p_end;
         if (captured.moving && !row_unilateral[i]) row.turns = true;
       } else {
-        if (point.body != body) {
+        if (captured_of[point.body] < 0) {
           throw InputError(Str("constraint snapshot: row ", i, " uses body ", point.body,
-                               ", only body ", body, " is captured"));
+                               ", which is not captured"));
         }
         if (body_point_of[term.point] < 0) {
           body_point_of[term.point] = static_cast<int>(set_point_of.size());
           set_point_of.push_back(term.point);
         }
         captured.body_point = body_point_of[term.point];
+        if (bodies[captured_of[point.body]].rows_turn && !row_unilateral[i]) row.turns = true;
       }
       terms_.push_back(captured);
     }
     rows_.push_back(row);
   }
 
-  // free positions and compliance blocks of the body points
+  // free positions and compliance blocks of the body points (zero across bodies)
   const int B = static_cast<int>(set_point_of.size());
   num_body_points_ = B;
   free_.resize(B);
-  G_.resize(3 * B, 3 * B);
+  G_.setZero(3 * B, 3 * B);
   const std::vector<int>& nodes = set.point_nodes();
   const std::vector<double>& weights = set.point_weights();
+  bool any_sensitivity = false;
+  for (const SnapshotBody& body : bodies) any_sensitivity |= body.free_sensitivity.size() > 0;
+  point_sensitivity_.resize(any_sensitivity ? 3 * B : 0, 6);
   for (int b = 0; b < B; ++b) {
     const int p = set_point_of[b];
+    const ConstraintPoint& pb = set.point(p);
     free_[b] = set.CalcFreePosition(p);
     const auto& Y = solver.compliance().point_columns(p);
     for (int a = 0; a < B; ++a) {
       const ConstraintPoint& pa = set.point(set_point_of[a]);
+      if (pa.body != pb.body) continue;
       G_.block<3, 3>(3 * a, 3 * b) =
           GatherRows(&nodes[pa.first_node], &weights[pa.first_node], pa.num_nodes, Y);
     }
+    if (any_sensitivity) {
+      const Eigen::MatrixXd& S = bodies[captured_of[pb.body]].free_sensitivity;
+      point_sensitivity_.middleRows<3>(3 * b).setZero();
+      if (S.size() > 0)
+        for (int k = 0; k < pb.num_nodes; ++k)
+          point_sensitivity_.middleRows<3>(3 * b) +=
+              weights[pb.first_node + k] * S.middleRows<3>(3 * nodes[pb.first_node + k]);
+    }
   }
-  const int Q = static_cast<int>(probes.size());
-  P_.resize(3 * Q, 3 * B);
+  int Q = 0;
+  for (const SnapshotBody& body : bodies) Q += static_cast<int>(body.probes.size());
+  P_.setZero(3 * Q, 3 * B);
   probe_free_.resize(Q);
-  const Eigen::Matrix3Xd& x_free = set.body(body).free_positions();
-  for (int q = 0; q < Q; ++q) {
-    const SnapshotProbe& probe = probes[q];
-    NSIM_CHECK(probe.nodes.size() == probe.weights.size() && !probe.nodes.empty(),
-               "probe needs nodes and weights");
-    const int count = static_cast<int>(probe.nodes.size());
-    probe_free_[q].setZero();
-    for (int k = 0; k < count; ++k) probe_free_[q] += probe.weights[k] * x_free.col(probe.nodes[k]);
-    for (int b = 0; b < B; ++b) {
-      P_.block<3, 3>(3 * q, 3 * b) = GatherRows(probe.nodes.data(), probe.weights.data(), count,
-                                                solver.compliance().point_columns(set_point_of[b]));
+  probe_sensitivity_.setZero(any_sensitivity ? 3 * Q : 0, 6);
+  int q = 0;
+  for (const SnapshotBody& body : bodies) {
+    const Eigen::Matrix3Xd& x_free = set.body(body.body).free_positions();
+    for (const SnapshotProbe& probe : body.probes) {
+      NSIM_CHECK(probe.nodes.size() == probe.weights.size() && !probe.nodes.empty(),
+                 "probe needs nodes and weights");
+      const int count = static_cast<int>(probe.nodes.size());
+      probe_free_[q].setZero();
+      for (int k = 0; k < count; ++k) {
+        probe_free_[q] += probe.weights[k] * x_free.col(probe.nodes[k]);
+        if (body.free_sensitivity.size() > 0)
+          probe_sensitivity_.middleRows<3>(3 * q) +=
+              probe.weights[k] * body.free_sensitivity.middleRows<3>(3 * probe.nodes[k]);
+      }
+      for (int b = 0; b < B; ++b) {
+        if (set.point(set_point_of[b]).body != body.body) continue;
+        P_.block<3, 3>(3 * q, 3 * b) =
+            GatherRows(probe.nodes.data(), probe.weights.data(), count,
+                       solver.compliance().point_columns(set_point_of[b]));
+      }
+      ++q;
     }
   }
 }
@@ -116,6 +165,14 @@ ConstraintSolveReport ConstraintSnapshot::Solve(
   const int m = num_rows();
   const int B = num_body_points_;
   const Eigen::Matrix3d R_rel = X_WN_new.linear() * X_WN_.linear().transpose();
+  // free positions that follow the base pose: shifted by S [dp; log(R' R^T)]
+  const bool shifted = point_sensitivity_.rows() > 0;
+  Vector6d pose_delta = Vector6d::Zero();
+  if (shifted) {
+    pose_delta.head<3>() = X_WN_new.translation() - X_WN_.translation();
+    pose_delta.tail<3>() = LogSO3(R_rel);
+    ws.shift.noalias() = point_sensitivity_ * pose_delta;
+  }
 
   // rows at the perturbed pose: compliance rows H (rows x 3B) and free values delta
   ws.H.setZero(m, 3 * B);
@@ -129,6 +186,7 @@ ConstraintSolveReport ConstraintSnapshot::Solve(
       if (term.body_point >= 0) {
         ws.H.block<1, 3>(i, 3 * term.body_point) += d.transpose();
         g += d.dot(free_[term.body_point]);
+        if (shifted) g += d.dot(ws.shift.segment<3>(3 * term.body_point));
       } else {
         g += d.dot(term.moving ? Eigen::Vector3d(X_WN_new * term.p_N) : term.p_kinematic);
       }
@@ -145,6 +203,7 @@ ConstraintSolveReport ConstraintSnapshot::Solve(
   probe_positions->resize(probe_free_.size());
   for (int q = 0; q < num_probes(); ++q) {
     (*probe_positions)[q] = probe_free_[q] + P_.middleRows<3>(3 * q) * ws.force;
+    if (shifted) (*probe_positions)[q] += probe_sensitivity_.middleRows<3>(3 * q) * pose_delta;
   }
   return report;
 }

@@ -124,6 +124,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     SteeringInput now;
     now.p_WM = frame.p_WM;
     now.X_WE = frame.X_WE;
+    now.bevel_angle = frame.bevel_angle;
     if (frame.q.size() == 7) now.q = Eigen::Map<const Vector7d>(frame.q.data());
     try {
       catch_up_ = controller_->CatchUp(now);
@@ -145,6 +146,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     r.horizon = CalcHorizon(t);
     SetCommanded(&input);
     input.X_WE = frame.X_WE;
+    input.bevel_angle = frame.bevel_angle;
     if (frame.q.size() == 7) input.q = Eigen::Map<const Vector7d>(frame.q.data());
     input.entry = frame.entry();
     r.predicted = config_.prediction_enabled && predictor_->ready() && std::isfinite(r.horizon);

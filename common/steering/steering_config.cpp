@@ -54,11 +54,24 @@ void InverseModelConfig::Validate() const {
   // Coulomb coefficients of needles in soft tissue are 0.05-0.5 (SOFA example: 0.1); 2 is absurd
   CheckRange(friction_coefficient, 0.0, 2.0, "inverse.friction_coefficient", "");
   for (size_t i = 0; i < anchors.size(); ++i) anchors[i].Validate(Str("inverse.anchors[", i, "]"));
+  bevel.Validate("inverse.bevel");
+  if (needle_kind == ModelNeedleKind::kFlexible)
+    Nested([&] { CalcModelBeamConfig(*this).Validate(); }, "needle.", "inverse.needle.");
   // a compliance built on the factor lags a background refresh (fem_config.h): unstable
   if (liver.background_refactor && !rest_compliance)
     throw InputError(
         "inverse.liver.background_refactor: true needs inverse.constraint_compliance: rest (a "
         "compliance built on the liver's factor would lag the refreshed factor)");
+}
+
+BeamNeedleConfig CalcModelBeamConfig(const InverseModelConfig& config) {
+  BeamNeedleConfig beam = config.flexible;
+  beam.needle.length = config.needle.length;
+  beam.needle.radius = config.needle.radius;
+  beam.needle.p_FBase = config.needle.p_FBase;
+  beam.needle.axis_F = config.needle.axis_F;
+  beam.time_step = config.liver.time_step;
+  return beam;
 }
 
 void SteeringPathConfig::Validate() const {

@@ -13,6 +13,8 @@
 #include "common/control/path_targets.h"
 #include "common/fem/fem_config.h"
 #include "common/mesh/oriented_box.h"
+#include "common/needle/beam_needle.h"
+#include "common/needle/bevel_tip.h"
 #include "common/needle/rigid_needle.h"
 #include "common/robot/iiwa14.h"
 #include "common/robot/pose_math.h"
@@ -28,8 +30,11 @@ enum class SteeringDof {
 SteeringDof ParseSteeringDof(const std::string& text, const std::string& key);
 const char* ToString(SteeringDof dof);
 
+/// The model's needle: kinematic on the flange, or a beam clamped to it (YAML inverse.needle).
+enum class ModelNeedleKind { kRigid, kFlexible };
+
 /// The liver model of the inverse simulation: its own mesh and material, registered to the
-/// fiducial markers by bilateral constraints, with a rigid needle inside.
+/// fiducial markers by bilateral constraints, with a rigid or flexible needle inside.
 struct InverseModelConfig {
   /// Material, damping and solver of the inverse liver. young_modulus is the nominal (believed)
   /// value; the model uses young_modulus * young_modulus_factor.
@@ -45,8 +50,17 @@ struct InverseModelConfig {
   double young_modulus_factor = 1.0;
   /// Rest positions of the fiducial markers in the liver (m), >= 1, each inside the mesh.
   std::vector<Eigen::Vector3d> markers_W;
-  /// The rigid needle on the flange (geometry, tool offset).
+  /// The needle on the flange (geometry, tool offset; the shared scenario's).
   NeedleConfig needle;
+  /// kRigid (default): the needle is kinematic, at the flange pose. kFlexible: a co-rotational
+  /// beam (common/needle/beam_needle.h) whose base is clamped to the flange pose, a second
+  /// compliant body in the model's constraint problem, as the patient's flexible needle.
+  ModelNeedleKind needle_kind = ModelNeedleKind::kRigid;
+  /// kFlexible: the beam's material and discretization (YAML inverse.needle: {type: flexible,
+  /// young_modulus, poisson_ratio, density, elements, rayleigh_mass, rayleigh_stiffness}, the
+  /// keys of the patient's needle section). Its geometry is `needle`'s and its time step the
+  /// liver's: CalcModelBeamConfig.
+  BeamNeedleConfig flexible;
   /// Liver puncture: axial contact force (N), > 0.
   double puncture_force = 0.3;
   /// Spacing of the trajectory constraint points along the needle path in the liver (m), > 0.
@@ -70,10 +84,21 @@ struct InverseModelConfig {
   /// this step's exact system, every column solved again each step). See
   /// SelectConstraintCompliance in common/fem/fem_solver.h.
   bool rest_compliance = false;
+  /// The model needle's bevel tip (YAML inverse.bevel, the keys of the patient's needle.bevel;
+  /// `inverse.bevel: patient` copies the patient's). Enabled: while the tip is in the model
+  /// liver, the Misra tip load (common/needle/bevel_tip.h) acts as the patient's does
+  /// (PatientScene::Step): for the rigid needle the tissue at the tip takes -Q y_B as nodal
+  /// forces, held over the step and computed from the state at its start. Disabled (default):
+  /// a symmetric tip, the model as without the option.
+  BevelConfig bevel;
 
   /// Throws InputError "inverse.<key> must be ..., got ..." for the first invalid field.
   void Validate() const;
 };
+
+/// The beam of a kFlexible model needle: config.flexible with config.needle's geometry (length,
+/// radius, tool offset, axis) and config.liver's time step.
+BeamNeedleConfig CalcModelBeamConfig(const InverseModelConfig& config);
 
 /// The planned insertion: a straight line from a start point before the entry to the target.
 struct SteeringPathConfig {
@@ -85,6 +110,13 @@ struct SteeringPathConfig {
 
   /// Throws InputError "controller.path.<key> ...".
   void Validate() const;
+};
+
+/// Which needle direction the alignment objective e_a (eq. 3.4) compares with the planned one.
+/// The same for a rigid needle; they differ for a flexible one, bent in the tissue.
+enum class AlignmentReference {
+  kTip,   ///< the direction at the tip (the bent needle's)
+  kBase,  ///< the direction at the base (the flange's needle axis)
 };
 
 /// Jacobian, inverse and law settings.
@@ -107,6 +139,13 @@ struct SteeringControlConfig {
     return c;
   }();
 
+  /// e_a's needle direction (YAML controller.alignment: tip | base). With a flexible model
+  /// needle held laterally at its tip by the tissue, a lateral flange motion hardly moves the
+  /// tip (its e_p column is a few % of the rigid needle's) but turns the tip's direction
+  /// (~10 rad/m): aligning the tip's direction then asks for large lateral motions that bend
+  /// the needle; aligning the base keeps e_a's rows those of a rigid needle (README, flexible
+  /// model needle).
+  AlignmentReference alignment = AlignmentReference::kTip;
   /// Include e_e (eq. 3.5) in phase 3 even when the skin entry is unknown, using the liver
   /// entry point (scenes without a skin).
   bool liver_entry_objective = true;

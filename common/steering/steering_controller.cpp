@@ -48,7 +48,11 @@ Eigen::VectorXd SteeringController::CalcObjectives(const SteeringEvaluation& eva
                                                    InsertionPhase phase) const {
   ObjectiveValues values;
   values.e_p = CalcPositionObjective(eval.p_WPath[path_index_], eval.p_WTip);
-  values.e_a = CalcAngleObjective(eval.X_WN.linear().col(2), sim_->path_direction());
+  // the needle's direction at its tip (the bent needle's) or at its base (the flange's axis)
+  const Eigen::Vector3d z = control_.alignment == AlignmentReference::kTip
+                                ? Eigen::Vector3d(eval.R_WTip.col(2))
+                                : Eigen::Vector3d(eval.X_WN.linear().col(2));
+  values.e_a = CalcAngleObjective(z, sim_->path_direction());
   if (entry_known_) {
     // the entry point stays on the needle: it moves rigidly with the perturbed needle
     const Eigen::Vector3d p_WC = eval.X_WN * (X_WN_step_.inverse() * p_WC_);
@@ -66,7 +70,7 @@ CatchUpReport SteeringController::CatchUp(const SteeringInput& input,
     if (!input.q.allFinite()) throw InputError("steering input: joint angles must be finite");
     X_WF = CalcFlangePose(input.q);
   }
-  const CatchUpReport report = sim_->CatchUp(input.p_WM, X_WF, config);
+  const CatchUpReport report = sim_->CatchUp(input.p_WM, X_WF, config, input.bevel_angle);
   X_WN_step_ = sim_->X_WN();
   return report;
 }
@@ -80,7 +84,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     if (!input.q.allFinite()) throw InputError("steering input: joint angles must be finite");
     X_WF = CalcFlangePose(input.q);
   }
-  out.model = sim_->Step(input.p_WM, X_WF);
+  out.model = sim_->Step(input.p_WM, X_WF, input.bevel_angle);
   out.num_unconverged_solves = out.model.solve.converged ? 0 : 1;
   X_WN_step_ = sim_->X_WN();
   const auto t1 = Clock::now();

@@ -36,6 +36,9 @@ struct SteeringInput {
   Eigen::Isometry3d X_WE = Eigen::Isometry3d::Identity();  ///< measured flange pose
   Vector7d q = Vector7d::Zero();  ///< measured joints (rad), used with SteeringDof::kJoint7
   EntryPoint entry;               ///< the localized skin entry point (punctured = false: none)
+  /// The bevel's roll about the needle axis (rad, SensorFrame::bevel_angle): the model's bevel
+  /// load (InverseModelConfig::bevel) acts in this orientation.
+  double bevel_angle = 0.0;
   /// The controller's last command, which the robot may not have carried out yet: the targets
   /// in flight over the loop's latency. When given (and control.compensate_in_flight), the step
   /// is computed for the objectives expected once that command has taken effect,

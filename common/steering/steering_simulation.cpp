@@ -9,6 +9,7 @@
 
 #include "common/core/error.h"
 #include "common/mesh/point_locator.h"
+#include "common/robot/pose_math.h"
 
 namespace nsim {
 namespace {
@@ -90,9 +91,15 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   liver.point_spacing = config.point_spacing;
   liver.tip_constraint = config.tip_constraint;
   coupling.tissues = {liver};
+  coupling.bevel = config.bevel;
   coupling_ = std::make_unique<NeedleTissueCoupling>(coupling, std::vector<const TetMesh*>{&mesh_});
   coupling_state_ = coupling_->MakeState();
-  ResetRigidNeedle(needle_, X_WF, needle_state_);
+  if (config.needle_kind == ModelNeedleKind::kFlexible) {
+    beam_model_ = std::make_unique<BeamNeedleModel>(CalcModelBeamConfig(config));
+    beam_state_ = std::make_unique<BeamNeedleState>(*beam_model_);
+    beam_body_ = std::make_unique<BeamNeedleBody>(*beam_model_, *beam_state_);
+  }
+  ResetNeedle(X_WF);
 
   // markers and path targets as material points of the rest mesh
   const TetLocator locator(mesh_);
@@ -146,6 +153,37 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
       path_probe_[k] = probe;
     }
   }
+  if (beam_body_) {
+    // the frozen step's bodies: the liver with the path probes; the beam with its tip node's
+    // position (pseudo-node n - 1) and rotation increment (pseudo-node 2n - 1) as probes
+    const int nodes = beam_model_->num_nodes();
+    SnapshotBody liver_body;
+    liver_body.probes = probes_;
+    SnapshotBody beam_body;
+    beam_body.probes = {SnapshotProbe{{nodes - 1}, {1.0}}, SnapshotProbe{{2 * nodes - 1}, {1.0}}};
+    beam_body.rows_turn = true;
+    snapshot_bodies_ = {liver_body, beam_body};
+  }
+}
+
+void SteeringSimulation::ResetNeedle(const Eigen::Isometry3d& X_WF) {
+  ResetRigidNeedle(needle_, X_WF, needle_state_);
+  if (!beam_body_) return;
+  ResetBeamNeedle(*beam_model_, X_WF, *beam_state_);
+  beam_state_->external_forces.setZero();
+  beam_state_->external_torques.setZero();
+  beam_tip_force_.setZero();
+  beam_tip_torque_.setZero();
+}
+
+Eigen::Vector3d SteeringSimulation::CalcTipPosition() const {
+  if (beam_state_) return beam_state_->x.col(beam_state_->num_nodes() - 1);
+  return nsim::CalcTipPosition(needle_state_.X_WN_end, needle_.length());
+}
+
+Eigen::Matrix3d SteeringSimulation::CalcTipFrame() const {
+  if (beam_state_) return beam_state_->R.back();
+  return needle_state_.X_WN_end.linear();
 }
 
 SteeringSimulation::~SteeringSimulation() = default;
@@ -175,7 +213,7 @@ void CatchUpConfig::Validate() const {
 
 CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_WM,
                                           const Eigen::Isometry3d& X_WF,
-                                          const CatchUpConfig& config) {
+                                          const CatchUpConfig& config, double bevel_angle) {
   const auto t0 = std::chrono::steady_clock::now();
   config.Validate();
   if (steps_ > 0) throw std::logic_error("SteeringSimulation::CatchUp after a Step");
@@ -192,9 +230,9 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
   CatchUpReport report;
   const double length = needle_.length();
   const Eigen::Isometry3d X_WN = needle_.CalcNeedlePose(X_WF);
-  const Eigen::Vector3d tip = CalcTipPosition(X_WN, length);
+  const Eigen::Vector3d tip = nsim::CalcTipPosition(X_WN, length);
   if (!((tip - start_W_).dot(X_WN.linear().col(2)) > config.min_depth)) {
-    ResetRigidNeedle(needle_, X_WF, needle_state_);  // outside: the model starts as it is
+    ResetNeedle(X_WF);  // outside: the model starts as it is
     return report;
   }
   const Eigen::Isometry3d X_NF = needle_.get_tool_offset().inverse();
@@ -206,14 +244,13 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
     return N * X_NF;
   };
   auto step = [&](const std::vector<Eigen::Vector3d>& markers, const Eigen::Isometry3d& X) {
-    Step(markers, X);
+    Step(markers, X, bevel_angle);
     ++report.steps;
   };
 
   // 1. the markers to their measured positions, the needle parked a needle length before the
   //    path's start (no coupling: it may be moved freely afterwards)
-  ResetRigidNeedle(needle_, flange(start_W_ - length * direction_, FrameWithZ(direction_)),
-                   needle_state_);
+  ResetNeedle(flange(start_W_ - length * direction_, FrameWithZ(direction_)));
   std::vector<Eigen::Vector3d> markers(markers_.size());
   for (int i = 1; i <= config.register_steps; ++i) {
     const double s = static_cast<double>(i) / config.register_steps;
@@ -238,7 +275,7 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
 
   // 3. driven in along the path to the measured tip's depth: the coupling punctures and seeds
   //    its points at the path's material points, as for an insertion that followed the plan
-  ResetRigidNeedle(needle_, flange(start, R_path), needle_state_);
+  ResetNeedle(flange(start, R_path));
   const int n = std::max(0, static_cast<int>(std::ceil(depth / config.advance_per_step - 1e-9)));
   for (int i = 1; i <= n; ++i) step(p_WM, flange(start + (depth * i / n) * d, R_path));
   const Eigen::Vector3d tip_path = start + std::max(0.0, depth) * d;
@@ -270,7 +307,7 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
 }
 
 SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& p_WM,
-                                            const Eigen::Isometry3d& X_WF) {
+                                            const Eigen::Isometry3d& X_WF, double bevel_angle) {
   if (p_WM.size() != markers_.size()) {
     throw InputError(Str("inverse simulation: expected ", markers_.size(), " markers, got ",
                          p_WM.size()));
@@ -281,9 +318,14 @@ SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& 
   if (!IsRigidTransform(X_WF, 1e-6)) {
     throw InputError("inverse simulation: the flange pose must be a finite rigid transform");
   }
+  if (!std::isfinite(bevel_angle)) throw InputError("inverse simulation: bevel angle not finite");
   SteeringStepReport report;
+  ApplyBevelLoad(bevel_angle);
+  report.bevel_active = !bevel_loads_.empty() || beam_tip_torque_.any() || beam_tip_force_.any();
   SetRigidNeedleTarget(needle_, X_WF, needle_state_);
+  if (beam_body_) SetBeamNeedleTarget(*beam_model_, X_WF, *beam_state_);
   report.fem = body_->BeginStep();
+  if (beam_body_) beam_body_->BeginStep();
 
   // registration: each marker material point reaches its measured position (3 bilateral rows)
   set_.Clear();
@@ -294,20 +336,34 @@ SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& 
     const int kp = set_.AddKinematicPoint(marker_positions_[m], p_WM[m]);
     set_.AddBilateral(pt, kp, Eigen::Matrix3d::Identity());
   }
+  const int nb = beam_body_ ? set_.AddBody(*beam_body_) : -1;
   const int first_needle_point = set_.num_points();
-  const NeedleView view = MakeNeedleView(needle_, needle_state_);
+  const NeedleView view = beam_body_ ? MakeNeedleView(*beam_body_, nb)
+                                     : MakeNeedleView(needle_, needle_state_);
   coupling_->AddConstraints(view, {b}, set_, coupling_state_);
 
   constraint_solver_.Assemble(set_);
   report.solve = constraint_solver_.SolveMultipliers(set_);
   std::vector<char> moves(set_.num_points(), 0);
   for (int p = first_needle_point; p < set_.num_points(); ++p) moves[p] = set_.point(p).body < 0;
-  snapshot_.Capture(set_, constraint_solver_, b, moves, needle_state_.X_WN_end, probes_);
+  if (beam_body_) {
+    // both bodies; the beam's free motion follows its base pose (the needle frame N)
+    snapshot_bodies_[0].body = b;
+    snapshot_bodies_[1].body = nb;
+    beam_body_->CalcFreeMotionSensitivity(snapshot_bodies_[1].free_sensitivity);
+    snapshot_.Capture(set_, constraint_solver_, snapshot_bodies_, moves, needle_state_.X_WN_end);
+    snapshot_R_WTip_start_ = beam_state_->R.back();
+  } else {
+    snapshot_.Capture(set_, constraint_solver_, b, moves, needle_state_.X_WN_end, probes_);
+  }
   has_snapshot_ = true;
   constraint_solver_.ApplyCorrections(set_);
   body_->EndStep();
+  if (beam_body_) beam_body_->EndStep();
 
-  coupling_->Update(view, {&state_->x}, constraint_solver_.lambda(), state_->time, coupling_state_);
+  // the coupling sees the needle at the step end: the committed beam, or the rigid end pose
+  coupling_->Update(beam_body_ ? MakeNeedleView(*beam_body_, nb) : view, {&state_->x},
+                    constraint_solver_.lambda(), state_->time, coupling_state_);
   AdvanceRigidNeedle(needle_state_);
   marker_positions_ = p_WM;
   ++steps_;
@@ -317,14 +373,56 @@ SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& 
   return report;
 }
 
+void SteeringSimulation::ApplyBevelLoad(double bevel_angle) {
+  // the last step's load off, this step's from the state at the step start (the coupling after
+  // the last Update, the needle at its end pose), as PatientScene::Step does for its rigid needle
+  for (const auto& [node, f] : bevel_loads_) state_->external_forces.col(node) -= f;
+  bevel_loads_.clear();
+  needle_state_.bevel_angle = bevel_angle;
+  if (beam_body_) {
+    // the beam takes the tip load itself (the patient's flexible path): Misra's torque M x_B
+    // (or force Q y_B) on the tip node, the tissue receiving it through the coupling's rows
+    BeamNeedleState& ns = *beam_state_;
+    const int tip = ns.num_nodes() - 1;
+    ns.external_forces.col(tip) -= beam_tip_force_;
+    ns.external_torques.col(tip) -= beam_tip_torque_;
+    ns.bevel_angle = bevel_angle;
+    const BevelTipLoad load =
+        coupling_->CalcBevelTipLoad(MakeNeedleView(*beam_body_, -1), coupling_state_);
+    beam_tip_force_ = load.force_on_needle;
+    beam_tip_torque_ = load.torque_on_needle;
+    ns.external_forces.col(tip) += beam_tip_force_;
+    ns.external_torques.col(tip) += beam_tip_torque_;
+    return;
+  }
+  const BevelTipLoad load =
+      coupling_->CalcBevelTipLoad(MakeNeedleView(needle_, needle_state_), coupling_state_);
+  if (!load.active || load.tip_point.tet < 0) return;
+  // a rigid needle cannot take the tip torque: the tissue at the tip takes -Q y_B, spread over
+  // the nodes of its tet by the tip's barycentric weights
+  for (int k = 0; k < 4; ++k) {
+    const int node = mesh_.tets[load.tip_point.tet][k];
+    const Eigen::Vector3d f = -load.tip_point.bary[k] * load.force_for_rigid;
+    state_->external_forces.col(node) += f;
+    bevel_loads_.push_back({node, f});
+  }
+}
+
 SteeringEvaluation SteeringSimulation::EvaluateAt(const Eigen::Isometry3d& X_WF,
                                                   SnapshotWorkspace& workspace) const {
   SteeringEvaluation out;
   out.X_WN = needle_.CalcNeedlePose(X_WF);
-  out.p_WTip = CalcTipPosition(out.X_WN, needle_.length());
+  out.p_WTip = nsim::CalcTipPosition(out.X_WN, needle_.length());
+  out.R_WTip = out.X_WN.linear();
   std::vector<Eigen::Vector3d> probes;
   if (has_snapshot_) {
     out.solve = snapshot_.Solve(out.X_WN, workspace, &probes);
+    if (beam_body_) {
+      // the bent needle's corrected tip node: position, and orientation exp(phi) R_start
+      const size_t q = probes_.size();
+      out.p_WTip = probes[q];
+      out.R_WTip = ExpSO3(probes[q + 1]) * snapshot_R_WTip_start_;
+    }
   } else {
     for (const SnapshotProbe& probe : probes_) {
       Eigen::Vector3d p = Eigen::Vector3d::Zero();

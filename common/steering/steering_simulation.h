@@ -13,6 +13,16 @@
 // X_WF'" by a constraint-space solve only, without touching the state (thesis eq. 3.6 / A.2;
 // DESIGN.md "Speed"). EvaluateAt(X_WF) reproduces the committed step.
 //
+// The needle (config.needle_kind): kinematic at the flange pose (rigid), or a co-rotational beam
+// whose base is clamped to the flange pose (flexible, common/needle/beam_needle.h), a second
+// compliant body of the step's constraint problem, with the patient's step protocol
+// (PatientScene::Step): base target, bevel load on the tip node, free motion of both bodies,
+// the coupling's rows on the beam's body points, one solve, commit. Its frozen step captures
+// both bodies and the beam's free-motion sensitivity to the base pose (constraint_snapshot.h:
+// exact for translations when the beam's free shape translates with its base, first order for
+// rotations; the rows on the beam turn with the base); EvaluateAt then reports the bent
+// needle's corrected tip and tip frame.
+//
 // A model built while the needle is already in (a controller started, or restarted, in the
 // middle of an insertion) catches up with CatchUp before its first Step. The tissue's state
 // around the needle depends on where the needle entered it and how it moved since, which no
@@ -27,6 +37,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "common/constraints/constraint_set.h"
@@ -37,6 +48,7 @@
 #include "common/fem/fem_state.h"
 #include "common/mesh/tet_mesh.h"
 #include "common/mesh/tet_point.h"
+#include "common/needle/beam_needle.h"
 #include "common/needle/needle_tissue.h"
 #include "common/needle/rigid_needle.h"
 #include "common/steering/constraint_snapshot.h"
@@ -55,6 +67,9 @@ struct PathPoint {
 struct SteeringEvaluation {
   Eigen::Isometry3d X_WN = Eigen::Isometry3d::Identity();  ///< needle pose (base frame N)
   Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();        ///< needle tip (m)
+  /// Tip frame (z = the needle's direction at the tip): X_WN's rotation for the rigid needle,
+  /// the beam's tip node for the flexible one.
+  Eigen::Matrix3d R_WTip = Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector3d> p_WPath;                    ///< every path target (m)
   ConstraintSolveReport solve;
 };
@@ -100,6 +115,7 @@ struct SteeringStepReport {
   ConstraintSolveReport solve;
   int num_rows = 0;
   TissuePhase liver_phase = TissuePhase::kOutside;
+  bool bevel_active = false;  ///< a bevel load acted over the step
 };
 
 class SteeringSimulation {
@@ -113,8 +129,19 @@ class SteeringSimulation {
   SteeringSimulation& operator=(const SteeringSimulation&) = delete;
 
   /// One step: the markers reach p_WM (m, one per configured marker) and the flange X_WF at
-  /// the end of the step. InputError on a wrong marker count or non-finite input.
-  SteeringStepReport Step(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF);
+  /// the end of the step; bevel_angle (rad) is the bevel's roll about the needle axis (used
+  /// with config.bevel enabled). InputError on a wrong marker count or non-finite input.
+  ///
+  /// Bevel (config.bevel.enabled, the tip in the liver): the load of this step is computed from
+  /// the state at its start and held over it (PatientScene::Step); for the rigid needle the
+  /// liver at the tip takes -Q y_B as nodal external forces, for the flexible one the beam's
+  /// tip node takes Misra's load (config.bevel.mode: the torque M x_B by default). The load is
+  /// part of the free motion, so the frozen step (EvaluateAt) keeps it fixed under every
+  /// perturbation: the bevel's load follows the committed state, not the perturbed pose (it
+  /// changes only with the roll, the tip frame and the tip's tissue point, which move little
+  /// within one step).
+  SteeringStepReport Step(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF,
+                          double bevel_angle = 0.0);
 
   /// Before the first Step, for a needle that may already be in (see the file comment): when
   /// the tip of the needle at X_WF is more than config.min_depth past the path's start along
@@ -124,9 +151,10 @@ class SteeringSimulation {
   /// rotation_per_step per step, and held for config.settle_steps, the markers at p_WM
   /// throughout; otherwise the needle is put at X_WF and nothing else is done (a needle that
   /// starts outside: the model is as built). InputError on a wrong marker count or non-finite
-  /// input; std::logic_error after a Step.
+  /// input; std::logic_error after a Step. bevel_angle: the bevel roll of every catch-up step
+  /// (rad, see Step).
   CatchUpReport CatchUp(const std::vector<Eigen::Vector3d>& p_WM, const Eigen::Isometry3d& X_WF,
-                        const CatchUpConfig& config = {});
+                        const CatchUpConfig& config = {}, double bevel_angle = 0.0);
 
   /// The end of the last step re-solved with the flange at X_WF (constraint-space solve on the
   /// frozen step; no side effects). Before the first Step: kinematic only (rest tissue).
@@ -146,9 +174,15 @@ class SteeringSimulation {
   const FemModel& liver_model() const { return *model_; }
   /// Markers as liver material points.
   const std::vector<TetPoint>& markers() const { return markers_; }
-  /// The needle pose at the end of the last step.
+  /// The needle pose at the end of the last step (flexible: its base frame).
   const Eigen::Isometry3d& X_WN() const { return needle_state_.X_WN_end; }
   const RigidNeedleModel& needle() const { return needle_; }
+  /// The flexible needle's state, nullptr for a rigid needle.
+  const BeamNeedleState* beam_needle() const { return beam_state_.get(); }
+  /// The needle tip (m) and tip frame (z along the needle at the tip) at the end of the last
+  /// step.
+  Eigen::Vector3d CalcTipPosition() const;
+  Eigen::Matrix3d CalcTipFrame() const;
   /// Liver coupling state (phase, points) after the last step.
   const TissueCouplingState& liver_coupling() const { return coupling_state_.tissues[0]; }
   bool liver_punctured() const;
@@ -159,6 +193,11 @@ class SteeringSimulation {
   int64_t steps() const { return steps_; }
 
  private:
+  // this step's bevel load on the liver or the beam's tip (the last one removed); see Step
+  void ApplyBevelLoad(double bevel_angle);
+  // the needle straight at the flange pose X_WF, at rest, no bevel load on it
+  void ResetNeedle(const Eigen::Isometry3d& X_WF);
+
   InverseModelConfig config_;
   TetMesh mesh_;
   std::unique_ptr<FemModel> model_;
@@ -166,7 +205,17 @@ class SteeringSimulation {
   std::unique_ptr<FemState> state_;
   std::unique_ptr<FemConstraintBody> body_;
   RigidNeedleModel needle_;
-  RigidNeedleState needle_state_;
+  RigidNeedleState needle_state_;  // the needle (rigid) or its base frame (flexible)
+  // flexible needle (config.needle_kind kFlexible), else null
+  std::unique_ptr<BeamNeedleModel> beam_model_;
+  std::unique_ptr<BeamNeedleState> beam_state_;
+  std::unique_ptr<BeamNeedleBody> beam_body_;
+  Eigen::Vector3d beam_tip_force_ = Eigen::Vector3d::Zero();   // bevel load held (N)
+  Eigen::Vector3d beam_tip_torque_ = Eigen::Vector3d::Zero();  // (N m)
+  // the frozen step's bodies with a beam: the liver (probes_) and the beam (tip position and
+  // tip rotation increment as probes, its free-motion sensitivity)
+  std::vector<SnapshotBody> snapshot_bodies_;
+  Eigen::Matrix3d snapshot_R_WTip_start_ = Eigen::Matrix3d::Identity();  // beam tip at capture
   std::unique_ptr<NeedleTissueCoupling> coupling_;
   NeedleCouplingState coupling_state_;
   std::vector<TetPoint> markers_;
@@ -174,6 +223,7 @@ class SteeringSimulation {
   std::vector<PathPoint> path_;
   std::vector<SnapshotProbe> probes_;  // one per distinct path reference, path_probe_[i]
   std::vector<int> path_probe_;
+  std::vector<std::pair<int, Eigen::Vector3d>> bevel_loads_;  // (node, force) held this step (N)
   Eigen::Vector3d direction_ = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d start_W_ = Eigen::Vector3d::Zero();  // the path's start (m)
   ConstraintSet set_;

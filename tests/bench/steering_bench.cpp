@@ -1,6 +1,8 @@
 // Cost of one control step of the inverse simulation (DESIGN.md "Speed"): the 2660-node liver
 // registered to 5 markers with the rigid needle ~3 cm inside it, compared with one plain model
 // step (the same simulation step without the Jacobian). Target: control step <= 1.5x plain step.
+// The *Flexible cases: the same with the model's needle a 20-element steel beam
+// (inverse.needle: flexible, E 200 GPa) instead of the kinematic rigid needle.
 // Run single-threaded: OPENBLAS_NUM_THREADS=1 steering_bench --benchmark_repetitions=5
 // --benchmark_report_aggregates_only=true
 
@@ -19,6 +21,11 @@ constexpr int kInsertionSteps = 25;  // 2 mm a step: ~3 cm into the liver
 constexpr double kAdvance = 0.002;   // m
 
 struct Setup {
+  explicit Setup(bool flexible = false) {
+    if (!flexible) return;
+    model.needle_kind = ModelNeedleKind::kFlexible;
+    model.flexible.needle.young_modulus = 200e9;
+  }
   TetMesh mesh = steering_test::LoadLiver("liver_2660");
   InverseModelConfig model = [] {
     InverseModelConfig c = steering_test::MakeModelConfig();
@@ -36,17 +43,19 @@ struct Setup {
   }
 };
 
-void BM_PlainStep(benchmark::State& state) {
-  Setup s;
+void RunPlainStep(benchmark::State& state, bool flexible) {
+  Setup s(flexible);
   SteeringSimulation sim(s.model, s.path, s.mesh, s.X_WF0);
   for (int i = 1; i <= kInsertionSteps; ++i) sim.Step(s.model.markers_W, s.Pose(i));
   const Eigen::Isometry3d X = s.Pose(kInsertionSteps);
   for (auto _ : state) sim.Step(s.model.markers_W, X);
   state.counters["rows"] = sim.liver_coupling().points.size();
 }
+void BM_PlainStep(benchmark::State& state) { RunPlainStep(state, false); }
+void BM_PlainStepFlexible(benchmark::State& state) { RunPlainStep(state, true); }
 
-void RunControlStep(benchmark::State& state, SteeringDof dof) {
-  Setup s;
+void RunControlStep(benchmark::State& state, SteeringDof dof, bool flexible = false) {
+  Setup s(flexible);
   SteeringControlConfig control;
   control.dof = dof;
   control.iiwa.X_WB.translation() = Eigen::Vector3d(0.0, 0.75, -0.3);
@@ -114,10 +123,15 @@ void BM_SnapshotSolveContact(benchmark::State& state) { RunSnapshotSolve(state, 
 
 void BM_ControlStep12(benchmark::State& state) { RunControlStep(state, SteeringDof::kCartesian6); }
 void BM_ControlStep14(benchmark::State& state) { RunControlStep(state, SteeringDof::kJoint7); }
+void BM_ControlStep12Flexible(benchmark::State& state) {
+  RunControlStep(state, SteeringDof::kCartesian6, true);
+}
 
 BENCHMARK(BM_PlainStep)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep12)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep14)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_PlainStepFlexible)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ControlStep12Flexible)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_SnapshotSolve)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SnapshotSolveContact)->Unit(benchmark::kMicrosecond);
 

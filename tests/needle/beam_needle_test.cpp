@@ -170,6 +170,63 @@ TEST(BeamNeedleTest, BaseFollowsTheFlangeExactly) {
   }
 }
 
+// The free motion's sensitivity to the base target against free motions with a perturbed
+// target (a bent, moving needle whose step turns its base): translations exactly (the free
+// motion is affine in the target position: round-off), rotations by central differences
+// (second order: the remainder O(eps^2) ~ 1e-12 of the O(1) entries).
+TEST(BeamNeedleTest, FreeMotionSensitivityMatchesPerturbedFreeMotions) {
+  const BeamNeedleModel model(MakeConfig());
+  BeamNeedleState state(model);
+  const int n = model.num_nodes();
+  {
+    BeamNeedleBody body(model, state);
+    state.external_forces.col(n - 1) = Eigen::Vector3d(0.05, -0.02, 0.0);
+    Settle(body, 5);  // bent and still moving
+  }
+  Eigen::Isometry3d X_WF = Eigen::Isometry3d::Identity();
+  X_WF.translation() = Eigen::Vector3d(1e-3, -2e-3, 3e-3);
+  X_WF.linear() = Eigen::AngleAxisd(0.03, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
+  // the free motion (positions and rotation increments, 3 x 2n) for a base target
+  auto free_motion = [&](const Eigen::Isometry3d& X_WBase) {
+    BeamNeedleState s = state;
+    BeamNeedleBody body(model, s);
+    s.X_WBase_target = X_WBase;
+    body.BeginStep();
+    Eigen::Matrix3Xd out = body.free_positions();
+    body.EndStep();
+    return out;
+  };
+  BeamNeedleState s = state;
+  BeamNeedleBody body(model, s);
+  SetBeamNeedleTarget(model, X_WF, s);
+  const Eigen::Isometry3d X_WBase = s.X_WBase_target;
+  body.BeginStep();
+  Eigen::MatrixXd S;
+  body.CalcFreeMotionSensitivity(S);
+  ASSERT_EQ(S.rows(), 6 * n);
+  ASSERT_EQ(S.cols(), 6);
+  const Eigen::Matrix3Xd x0 = free_motion(X_WBase);
+  constexpr double kStep = 1e-4;  // m, rad
+  for (int j = 0; j < 6; ++j) {
+    Eigen::MatrixXd column(3, 2 * n);
+    if (j < 3) {
+      Eigen::Isometry3d X = X_WBase;
+      X.translation()[j] += kStep;
+      column = (free_motion(X) - x0) / kStep;
+    } else {
+      Eigen::Isometry3d Xp = X_WBase, Xm = X_WBase;
+      Xp.linear() = Eigen::AngleAxisd(kStep, Eigen::Vector3d::Unit(j - 3)) * X_WBase.linear();
+      Xm.linear() = Eigen::AngleAxisd(-kStep, Eigen::Vector3d::Unit(j - 3)) * X_WBase.linear();
+      column = (free_motion(Xp) - free_motion(Xm)) / (2 * kStep);
+    }
+    const Eigen::Map<const Eigen::VectorXd> expected(column.data(), 6 * n);
+    EXPECT_LT((S.col(j) - expected).cwiseAbs().maxCoeff(), j < 3 ? 1e-9 : 1e-7) << "column " << j;
+  }
+  // the free tip follows a base translation by less than the base (inertia lag), but mostly
+  EXPECT_GT(S(3 * (n - 1), 0), 0.5);
+  EXPECT_LT(S(3 * (n - 1), 0), 1.0);
+}
+
 TEST(BeamNeedleTest, BadConfigNamesTheKey) {
   BeamNeedleConfig c;
   c.num_elements = 0;

@@ -1,0 +1,159 @@
+// The inverse side's scenario loader (inverse_sim/scenario_loader.h) on the model's needle
+// options: inverse.bevel (a bevel map with the patient's keys, or `patient`), by default off,
+// and bad values named by their YAML key.
+#include "inverse_sim/scenario_loader.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "common/core/error.h"
+
+namespace nsim {
+namespace {
+
+const std::string kScenarioDir = std::string(NSIM_SOURCE_DIR) + "/configs/scenarios";
+
+std::string DefaultText() {
+  std::ifstream in(kScenarioDir + "/liver_breathing.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// the default scenario with `from` (first occurrence) replaced by `to`
+std::string Edited(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return text.replace(at, from.size(), to);
+}
+
+// loads `text` as a scenario file beside the default one (its mesh paths are relative)
+InverseScenario Load(const std::string& text) {
+  const std::string path = kScenarioDir + "/.inverse_loader_test_" +
+                           std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+                           "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                           ".yaml";
+  {
+    std::ofstream out(path);
+    out << text;
+  }
+  struct Remove {
+    std::string path;
+    ~Remove() { std::filesystem::remove(path); }
+  } remove{path};
+  return LoadInverseScenario(path);
+}
+
+std::string LoadError(const std::string& text) {
+  try {
+    Load(text);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const std::string kInverseKey = "  constraint_compliance: rest  # h^2 A_0^-1";
+
+TEST(InverseScenarioLoaderTest, BevelIsOffByDefault) {
+  const InverseScenario s = Load(DefaultText());
+  EXPECT_FALSE(s.loop.model.bevel.enabled);
+}
+
+TEST(InverseScenarioLoaderTest, ReadsTheModelBevel) {
+  const InverseScenario s = Load(Edited(
+      DefaultText(), kInverseKey,
+      "  bevel: {enabled: true, diameter: 0.001, tissue_stiffness: 100000, mode: force}\n" +
+          kInverseKey));
+  EXPECT_TRUE(s.loop.model.bevel.enabled);
+  EXPECT_EQ(s.loop.model.bevel.diameter, 0.001);
+  EXPECT_EQ(s.loop.model.bevel.tissue_stiffness, 100000);
+  EXPECT_EQ(s.loop.model.bevel.mode, BevelLoadMode::kForce);
+  EXPECT_EQ(s.loop.model.bevel.bevel_angle, BevelConfig().bevel_angle);  // absent: default
+}
+
+TEST(InverseScenarioLoaderTest, PatientBevelCopiesTheNeedleSection) {
+  std::string text = Edited(DefaultText(), "bevel: {enabled: false, diameter: 0.0012",
+                            "bevel: {enabled: true, diameter: 0.0011");
+  text = Edited(text, kInverseKey, "  bevel: patient\n" + kInverseKey);
+  const InverseScenario s = Load(text);
+  EXPECT_TRUE(s.loop.model.bevel.enabled);
+  EXPECT_EQ(s.loop.model.bevel.diameter, 0.0011);
+  EXPECT_EQ(s.loop.model.bevel.tissue_stiffness, 150000);
+}
+
+TEST(InverseScenarioLoaderTest, BadBevelValuesNameTheKey) {
+  const std::string negative = LoadError(
+      Edited(DefaultText(), kInverseKey, "  bevel: {enabled: true, diameter: -1}\n" + kInverseKey));
+  EXPECT_NE(negative.find("inverse.bevel.diameter must be > 0"), std::string::npos) << negative;
+  const std::string typo = LoadError(
+      Edited(DefaultText(), kInverseKey, "  bevel: {enabeld: true}\n" + kInverseKey));
+  EXPECT_NE(typo.find("enabeld"), std::string::npos) << typo;
+  const std::string word =
+      LoadError(Edited(DefaultText(), kInverseKey, "  bevel: patients\n" + kInverseKey));
+  EXPECT_NE(word.find("expected a bevel map or 'patient'"), std::string::npos) << word;
+}
+
+TEST(InverseScenarioLoaderTest, NeedleIsRigidByDefault) {
+  const InverseScenario s = Load(DefaultText());
+  EXPECT_EQ(s.loop.model.needle_kind, ModelNeedleKind::kRigid);
+}
+
+TEST(InverseScenarioLoaderTest, ReadsTheFlexibleModelNeedle) {
+  const InverseScenario word = Load(Edited(DefaultText(), kInverseKey, "  needle: flexible\n" + kInverseKey));
+  EXPECT_EQ(word.loop.model.needle_kind, ModelNeedleKind::kFlexible);
+  EXPECT_EQ(word.loop.model.flexible.needle.young_modulus, MakeFlexibleNeedleConfig().young_modulus);
+  const InverseScenario map = Load(Edited(
+      DefaultText(), kInverseKey,
+      "  needle: {type: flexible, young_modulus: 2.0e11, elements: 12, rayleigh_mass: 0.5}\n" +
+          kInverseKey));
+  EXPECT_EQ(map.loop.model.needle_kind, ModelNeedleKind::kFlexible);
+  EXPECT_EQ(map.loop.model.flexible.needle.young_modulus, 2e11);
+  EXPECT_EQ(map.loop.model.flexible.num_elements, 12);
+  EXPECT_EQ(map.loop.model.flexible.rayleigh_mass, 0.5);
+  // the beam's geometry and step are the shared needle's and the model liver's
+  const BeamNeedleConfig beam = CalcModelBeamConfig(map.loop.model);
+  EXPECT_EQ(beam.needle.length, map.shared.needle_length);
+  EXPECT_EQ(beam.time_step, map.loop.model.liver.time_step);
+}
+
+TEST(InverseScenarioLoaderTest, PatientNeedleCopiesTheNeedleSection) {
+  std::string text = Edited(DefaultText(), "  type: rigid                # rigid", "  type: flexible  # rigid");
+  text = Edited(text, kInverseKey, "  needle: patient\n" + kInverseKey);
+  const InverseScenario s = Load(text);
+  EXPECT_EQ(s.loop.model.needle_kind, ModelNeedleKind::kFlexible);
+  EXPECT_EQ(s.loop.model.flexible.needle.young_modulus, 200e9);  // needle.young_modulus
+}
+
+TEST(InverseScenarioLoaderTest, ReadsTheAlignmentReference) {
+  EXPECT_EQ(Load(DefaultText()).loop.control.alignment, AlignmentReference::kTip);
+  const std::string key = "  compensate_in_flight: true";
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "  alignment: base\n" + key)).loop.control.alignment,
+            AlignmentReference::kBase);
+  const std::string bad = LoadError(Edited(DefaultText(), key, "  alignment: middle\n" + key));
+  EXPECT_NE(bad.find("alignment"), std::string::npos) << bad;
+}
+
+TEST(InverseScenarioLoaderTest, BadNeedleValuesNameTheKey) {
+  auto error = [&](const std::string& value) {
+    return LoadError(Edited(DefaultText(), kInverseKey, "  needle: " + value + "\n" + kInverseKey));
+  };
+  const std::string word = error("bendy");
+  EXPECT_NE(word.find("expected rigid, flexible, patient or a map"), std::string::npos) << word;
+  const std::string elements = error("{type: flexible, elements: 0}");
+  EXPECT_NE(elements.find("inverse.needle.num_elements must be >= 1"), std::string::npos)
+      << elements;
+  const std::string modulus = error("{type: flexible, young_modulus: -1}");
+  EXPECT_NE(modulus.find("inverse.needle.young_modulus"), std::string::npos) << modulus;
+  const std::string moved = error("{length: 0.2}");
+  EXPECT_NE(moved.find("moved to shared.needle.length"), std::string::npos) << moved;
+  const std::string typo = error("{type: flexible, elemnts: 3}");
+  EXPECT_NE(typo.find("elemnts"), std::string::npos) << typo;
+}
+
+}  // namespace
+}  // namespace nsim
