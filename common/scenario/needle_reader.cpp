@@ -1,5 +1,7 @@
 #include "common/scenario/needle_reader.h"
 
+#include "common/core/error.h"
+
 namespace nsim {
 
 void ReadBevel(const YamlReader& node, BevelConfig* b) {
@@ -25,7 +27,9 @@ void ReadNeedleMaterial(const YamlReader& node, NeedleConfig* g, BeamNeedleConfi
   node.Read("young_modulus", &g->young_modulus);
   node.Read("poisson_ratio", &g->poisson_ratio);
   node.Read("density", &g->density);
-  node.Read("elements", &beam->num_elements);
+  // checked here: the beam's own check names its field (num_elements), not this key
+  if (node.Read("elements", &beam->num_elements) && beam->num_elements < 1)
+    throw InputError(Str(node.Where("elements"), " must be >= 1, got ", beam->num_elements));
   node.Read("rayleigh_mass", &beam->rayleigh_mass);
   node.Read("rayleigh_stiffness", &beam->rayleigh_stiffness);
 }

@@ -145,7 +145,7 @@ TEST(InverseScenarioLoaderTest, BadNeedleValuesNameTheKey) {
   const std::string word = error("bendy");
   EXPECT_NE(word.find("expected rigid, flexible, patient or a map"), std::string::npos) << word;
   const std::string elements = error("{type: flexible, elements: 0}");
-  EXPECT_NE(elements.find("inverse.needle.num_elements must be >= 1"), std::string::npos)
+  EXPECT_NE(elements.find("inverse.needle.elements must be >= 1"), std::string::npos)
       << elements;
   const std::string modulus = error("{type: flexible, young_modulus: -1}");
   EXPECT_NE(modulus.find("inverse.needle.young_modulus"), std::string::npos) << modulus;
