@@ -4,6 +4,7 @@
 #include "common/fem/fem_solver.h"
 #include "common/mesh/gmsh_reader.h"
 #include "common/scenario/box_reader.h"
+#include "common/scenario/fem_reader.h"
 #include "common/scenario/needle_reader.h"
 #include "common/scenario/shared_scenario.h"
 
@@ -15,35 +16,11 @@ std::string Join(const std::string& dir, const std::string& path) {
   return dir + "/" + path;
 }
 
-// material, damping and solver keys of a tissue
-const std::vector<std::string> kFemKeys = {"mesh",
-                                           "young_modulus",
-                                           "poisson_ratio",
-                                           "density",
-                                           "rayleigh_mass",
-                                           "rayleigh_stiffness",
-                                           "linear_solver",
-                                           "cg_relative_tolerance",
-                                           "cg_max_iterations",
-                                           "refactor_iteration_threshold",
-                                           "background_refactor",
-                                           "refactor_adopt_delay",
-                                           "element_threads"};
-
-void ReadFem(const YamlReader& node, FemConfig* fem) {
-  node.Read("young_modulus", &fem->young_modulus);
-  node.Read("poisson_ratio", &fem->poisson_ratio);
-  node.Read("density", &fem->density);
-  node.Read("rayleigh_mass", &fem->rayleigh_mass);
-  node.Read("rayleigh_stiffness", &fem->rayleigh_stiffness);
-  if (std::string solver; node.Read("linear_solver", &solver))
-    fem->linear_solver = ParseFemLinearSolver(solver, node.Where("linear_solver"));
-  node.Read("cg_relative_tolerance", &fem->cg_relative_tolerance);
-  node.Read("cg_max_iterations", &fem->cg_max_iterations);
-  node.Read("refactor_iteration_threshold", &fem->refactor_iteration_threshold);
-  node.Read("background_refactor", &fem->background_refactor);
-  node.Read("refactor_adopt_delay", &fem->refactor_adopt_delay);  // validated with the scene
-  node.Read("element_threads", &fem->element_threads);
+// the FEM keys of a tissue section, and its mesh
+std::vector<std::string> TissueKeys() {
+  std::vector<std::string> keys = FemConfigKeys();
+  keys.push_back("mesh");
+  return keys;
 }
 
 TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::string* path) {
@@ -78,14 +55,14 @@ void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScen
   const int compliance = node.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) c.liver_rest_compliance = compliance == 0;
   const YamlReader liver = node.Child("liver");
-  liver.CheckKeys(kFemKeys);
-  ReadFem(liver, &c.liver);
+  liver.CheckKeys(TissueKeys());
+  ReadFemConfig(liver, &c.liver);
   const YamlReader skin = node.Child("skin");
-  std::vector<std::string> skin_keys = kFemKeys;
+  std::vector<std::string> skin_keys = TissueKeys();
   skin_keys.push_back("pose");
   skin_keys.push_back("attach_distance");
   skin.CheckKeys(skin_keys);
-  ReadFem(skin, &c.skin.fem);
+  ReadFemConfig(skin, &c.skin.fem);
   skin.Read("pose", &c.skin.X_WS);
   skin.Read("attach_distance", &c.skin.attach_distance);
   node.Read("rib_contact_margin", &c.rib_contact_margin);

@@ -10,6 +10,7 @@
 #include "common/core/yaml_reader.h"
 #include "common/fem/fem_solver.h"
 #include "common/scenario/box_reader.h"
+#include "common/scenario/fem_reader.h"
 #include "common/scenario/needle_reader.h"
 #include "common/scenario/shared_scenario.h"
 #include "common/scene/scene_config.h"
@@ -17,22 +18,13 @@
 namespace nsim {
 namespace {
 
+// the model liver's FEM keys, and its own time step
 void ReadFem(const YamlReader& y, FemConfig* c) {
-  y.CheckKeys({"young_modulus", "poisson_ratio", "density", "rayleigh_mass", "rayleigh_stiffness",
-               "time_step", "linear_solver", "cg_relative_tolerance", "background_refactor",
-               "element_threads"});
-  y.Read("background_refactor", &c->background_refactor);
-  y.Read("element_threads", &c->element_threads);
-  y.Read("young_modulus", &c->young_modulus);
-  y.Read("poisson_ratio", &c->poisson_ratio);
-  y.Read("density", &c->density);
-  y.Read("rayleigh_mass", &c->rayleigh_mass);
-  y.Read("rayleigh_stiffness", &c->rayleigh_stiffness);
+  std::vector<std::string> keys = FemConfigKeys();
+  keys.push_back("time_step");
+  y.CheckKeys(keys);
+  ReadFemConfig(y, c);
   y.Read("time_step", &c->time_step);
-  y.Read("cg_relative_tolerance", &c->cg_relative_tolerance);
-  std::string solver;
-  if (y.Read("linear_solver", &solver))
-    c->linear_solver = ParseFemLinearSolver(solver, y.Where("linear_solver"));
 }
 
 template <int N>

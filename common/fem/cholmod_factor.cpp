@@ -109,6 +109,24 @@ void CholmodFactor::Solve(const Eigen::Ref<const Eigen::MatrixXd>& B,
     X.col(c) = Eigen::Map<const Eigen::VectorXd>(out + c * ld, X.rows());
 }
 
+SupernodalFactorView CholmodFactor::supernodal_view() const {
+  NSIM_CHECK(factorized_, "CholmodFactor::supernodal_view without a valid factorization");
+  const cholmod_factor* L = impl_->factor;
+  NSIM_CHECK(L->is_super && L->is_ll && L->itype == CHOLMOD_INT && L->xtype == CHOLMOD_REAL &&
+                 L->dtype == CHOLMOD_DOUBLE,
+             "CholmodFactor::supernodal_view needs a supernodal LL' factor with int indices");
+  SupernodalFactorView view;
+  view.n = static_cast<int>(L->n);
+  view.nsuper = static_cast<int>(L->nsuper);
+  view.super = static_cast<const int*>(L->super);
+  view.pi = static_cast<const int*>(L->pi);
+  view.px = static_cast<const int*>(L->px);
+  view.s = static_cast<const int*>(L->s);
+  view.x = static_cast<const double*>(L->x);
+  view.perm = static_cast<const int*>(L->Perm);
+  return view;
+}
+
 int CholmodFactor::rows() const { return impl_->n; }
 bool CholmodFactor::is_analyzed() const { return impl_->factor != nullptr; }
 double CholmodFactor::get_factor_nnz() const { return impl_->common.lnz; }

@@ -8,6 +8,8 @@
 #include <Eigen/SparseCore>
 #include <memory>
 
+#include "common/fem/single_precision_factor.h"
+
 namespace nsim {
 
 class CholmodFactor {
@@ -34,6 +36,10 @@ class CholmodFactor {
   /// alias B. Reuses CHOLMOD workspaces between calls with the same k (no allocation then).
   /// Not thread-safe on one object: one factor per thread.
   void Solve(const Eigen::Ref<const Eigen::MatrixXd>& B, Eigen::Ref<Eigen::MatrixXd> X);
+
+  /// The supernodal factor's arrays (valid until the next Analyze, Factorize or CopyFrom), to
+  /// copy it in single precision (SinglePrecisionFactor::Assign). Requires a factorization.
+  SupernodalFactorView supernodal_view() const;
 
   int rows() const;
   bool is_analyzed() const;

@@ -1,5 +1,9 @@
 #include "common/fem/fem_solver.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -11,6 +15,7 @@
 #include "common/core/error.h"
 #include "common/fem/cholmod_factor.h"
 #include "common/fem/fork_join.h"
+#include "common/fem/single_precision_factor.h"
 
 namespace nsim {
 
@@ -26,6 +31,8 @@ struct FemSolver::Impl {
   Eigen::VectorXd mass_free;            // lumped mass per reduced DOF (kg), 3 #free
   Eigen::SparseMatrix<double> matrix;   // A_ff assembled on this thread
   std::unique_ptr<CholmodFactor> active;  // factor used by solves on this thread
+  // its single-precision copy, the PCG preconditioner's (FemConfig::single_precision_preconditioner)
+  std::unique_ptr<SinglePrecisionFactor> active_single;
   std::unique_ptr<CholmodFactor> rest;    // factor of A_0, never replaced (kRestFactor)
   std::vector<Eigen::Matrix3d> rotations;     // element rotations of the current step
   std::vector<Matrix34d> rotated_grad;        // R_e grad_n of the current step (1/m)
@@ -55,6 +62,7 @@ struct FemSolver::Impl {
   // needed). Ownership: background_matrix and spare belong to the worker from the request
   // until job_done is seen under the mutex; background_rotations only to this thread.
   std::unique_ptr<CholmodFactor> spare;
+  std::unique_ptr<SinglePrecisionFactor> spare_single;  // its copy, made by the worker
   Eigen::SparseMatrix<double> background_matrix;
   std::vector<Eigen::Matrix3d> background_rotations;
   std::thread worker;
@@ -113,10 +121,17 @@ struct FemSolver::Impl {
     active = std::make_unique<CholmodFactor>();
     active->CopyFrom(*rest);
     factor_is_current = true;
+    const bool single = config.single_precision_preconditioner &&
+                        config.linear_solver == FemLinearSolver::kPcgCachedFactor;
+    if (single) {
+      active_single = std::make_unique<SinglePrecisionFactor>();
+      active_single->Assign(active->supernodal_view());
+    }
 
     if (config.background_refactor && config.linear_solver == FemLinearSolver::kPcgCachedFactor) {
       spare = std::make_unique<CholmodFactor>();
       spare->Analyze(matrix);
+      if (single) spare_single = std::make_unique<SinglePrecisionFactor>();
       background_matrix = matrix;
       background_rotations = nodal_rotations;
       worker = std::thread([this] { WorkerLoop(); });
@@ -135,6 +150,11 @@ struct FemSolver::Impl {
   }
 
   void WorkerLoop() {
+    // the lowest priority (nice 19; Linux sets it per thread): on a core that a step also
+    // wants, the step goes first and the factorization takes the time the steps leave (a
+    // realtime loop's wait for its next period); on a free core it runs at full speed. A
+    // worker that is late only makes its adopting step wait (the schedule does not change).
+    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
     std::unique_lock<std::mutex> lock(mutex);
     for (;;) {
       wake.wait(lock, [this] { return job_pending || quit; });
@@ -147,6 +167,7 @@ struct FemSolver::Impl {
       if (delay.count() > 0) std::this_thread::sleep_for(delay);
       // background_matrix and spare are owned by the worker until job_done is set
       const bool ok = spare->Factorize(background_matrix);
+      if (ok && spare_single) spare_single->Assign(spare->supernodal_view());
       ++factorizations;
       lock.lock();
       job_ok = ok;
@@ -237,7 +258,8 @@ struct FemSolver::Impl {
   }
   void ApplyPreconditioner(const Eigen::VectorXd& in, Eigen::VectorXd& out) {
     for (int k = 0; k < num_free; ++k) tmp.segment<3>(3 * k) = warp[k].transpose() * in.segment<3>(3 * k);
-    active->Solve(tmp, out);
+    if (active_single) active_single->Solve(tmp, out);
+    else active->Solve(tmp, out);
     for (int k = 0; k < num_free; ++k) {
       const Eigen::Vector3d v = out.segment<3>(3 * k);
       out.segment<3>(3 * k) = warp[k] * v;
@@ -302,6 +324,7 @@ struct FemSolver::Impl {
   void RefactorizeNow() {
     Assemble(matrix);
     NSIM_CHECK(active->Factorize(matrix), "system matrix is not positive definite");
+    if (active_single) active_single->Assign(active->supernodal_view());
     ++factorizations;
     ++factor_version;
     reference_rotations = nodal_rotations;
@@ -330,6 +353,7 @@ struct FemSolver::Impl {
     waited = WaitForJob(lock);
     if (!job_ok) return false;  // a failed factorization is dropped, the old factor stays
     std::swap(active, spare);
+    std::swap(active_single, spare_single);
     std::swap(reference_rotations, background_rotations);
     ++factor_version;
     return true;

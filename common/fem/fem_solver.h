@@ -66,8 +66,9 @@
 //                   memory of one more factor (a copy made at construction).
 //
 // Threading: a FemSolver belongs to one thread (plus its own background worker when
-// FemConfig::background_refactor is set on the PCG path). The worker only
-// factorizes; what it factorizes (A of the step that asked) and when its factor is adopted
+// FemConfig::background_refactor is set on the PCG path, at the lowest priority, nice 19, so
+// that on a shared core the steps go first). The worker only
+// factorizes (and makes the factor's single-precision copy for the preconditioner); what it factorizes (A of the step that asked) and when its factor is adopted
 // (refactor_adopt_delay steps later, at the start of BeginStep, waiting if necessary) follow
 // from the calls alone, so results do not depend on thread timing (given a BLAS that is
 // deterministic for a fixed thread count). BLAS threads: set OPENBLAS_NUM_THREADS=1 for

@@ -176,6 +176,25 @@ void Solve(benchmark::State& bench, int nodes) {
   }
 }
 
+// the same solve with the factor's single-precision copy (the PCG preconditioner's solve)
+void SolveSingle(benchmark::State& bench, int nodes) {
+  Fixture fixture(nodes, FemLinearSolver::kDirect, false, 3, DirectWarmUp(nodes));
+  const Eigen::SparseMatrix<double> A = fixture.solver->CalcSystemMatrix();
+  CholmodFactor factor;
+  factor.Analyze(A);
+  factor.Factorize(A);
+  SinglePrecisionFactor single;
+  single.Assign(factor.supernodal_view());
+  const Eigen::VectorXd b = Eigen::VectorXd::Random(A.rows());
+  Eigen::VectorXd x(A.rows()), reference(A.rows());
+  factor.Solve(b, reference);
+  for (auto _ : bench) {
+    single.Solve(b, x);
+    benchmark::DoNotOptimize(x.data());
+  }
+  bench.counters["relative_difference"] = (x - reference).norm() / reference.norm();
+}
+
 // A^-1 H^T for 40 constraint rows, each on the 4 nodes of one tet (barycentric point)
 void ApplyInverse40(benchmark::State& bench, int nodes, FemInverse which) {
   Fixture fixture(nodes, FemLinearSolver::kPcgCachedFactor, false);
@@ -266,6 +285,9 @@ int main(int argc, char** argv) {
     })->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("Solve/" + n).c_str(), [nodes](benchmark::State& s) {
       Solve(s, nodes);
+    })->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("SolveSingle/" + n).c_str(), [nodes](benchmark::State& s) {
+      SolveSingle(s, nodes);
     })->Unit(benchmark::kMillisecond);
     if (!scaling_only)
       benchmark::RegisterBenchmark(("ApplyInverse40CachedFactor/" + n).c_str(),

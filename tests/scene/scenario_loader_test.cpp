@@ -78,6 +78,10 @@ TEST(ScenarioLoaderTest, BadValuesNameTheKey) {
   EXPECT_EQ(LoadError(Edited("constraint_compliance: rest", "constraint_compliance: current")),
             "scenario.yaml: patient.constraint_compliance: expected one of rest, last_factor, got "
             "'current'");
+  EXPECT_EQ(LoadError(Edited("refactor_adopt_delay: 3",
+                             "refactor_adopt_delay: 3\n    preconditioner_precision: half")),
+            "scenario.yaml: patient.liver.preconditioner_precision: expected one of single, "
+            "double, got 'half'");
   const std::string mesh = LoadError(Edited("liver_2660.msh", "no_such.msh"));
   EXPECT_EQ(mesh.rfind("scenario.yaml: patient.liver.mesh: ", 0), 0u) << mesh;
 }

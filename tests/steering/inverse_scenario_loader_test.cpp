@@ -59,6 +59,25 @@ std::string LoadError(const std::string& text) {
 
 const std::string kInverseKey = "  constraint_compliance: rest  # h^2 A_0^-1";
 
+// inverse.liver shares the patient's FEM keys (common/scenario/fem_reader.h)
+TEST(InverseScenarioLoaderTest, ReadsTheModelLiversSolverKeys) {
+  EXPECT_TRUE(Load(DefaultText()).loop.model.liver.single_precision_preconditioner);
+  const std::string solver =
+      "    linear_solver: pcg_cached_factor  # PCG on the cached factor; `direct` refactorizes each "
+      "step";
+  const InverseScenario s = Load(Edited(DefaultText(), solver,
+                                        solver + "\n    preconditioner_precision: double\n"
+                                                 "    refactor_iteration_threshold: 4"));
+  EXPECT_FALSE(s.loop.model.liver.single_precision_preconditioner);
+  EXPECT_EQ(s.loop.model.liver.refactor_iteration_threshold, 4);
+  const std::string bad =
+      LoadError(Edited(DefaultText(), solver, solver + "\n    preconditioner_precision: half"));
+  EXPECT_NE(bad.find("inverse.liver.preconditioner_precision: expected one of single, double, got "
+                     "'half'"),
+            std::string::npos)
+      << bad;
+}
+
 TEST(InverseScenarioLoaderTest, BevelIsOffByDefault) {
   const InverseScenario s = Load(DefaultText());
   EXPECT_FALSE(s.loop.model.bevel.enabled);

@@ -1,0 +1,73 @@
+#include "common/fem/single_precision_factor.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+
+#include "common/core/error.h"
+
+namespace nsim {
+
+namespace {
+// a supernode's nsrow x nscol block of L, column-major (its own columns' rows first)
+using BlockMap = Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>>;
+}  // namespace
+
+void SinglePrecisionFactor::Assign(const SupernodalFactorView& view) {
+  NSIM_CHECK(view.n > 0 && view.nsuper > 0 && view.super && view.pi && view.px && view.s &&
+                 view.x && view.perm,
+             "SinglePrecisionFactor::Assign needs a supernodal factor");
+  n_ = view.n;
+  super_.assign(view.super, view.super + view.nsuper + 1);
+  pi_.assign(view.pi, view.pi + view.nsuper + 1);
+  px_.assign(view.px, view.px + view.nsuper + 1);
+  s_.assign(view.s, view.s + pi_.back());
+  perm_.assign(view.perm, view.perm + n_);
+  NSIM_CHECK(super_.front() == 0 && super_.back() == n_, "the supernodes cover columns ",
+             super_.front(), " to ", super_.back(), " of ", n_);
+  values_.resize(static_cast<size_t>(px_.back()));
+  std::transform(view.x, view.x + values_.size(), values_.begin(),
+                 [](double v) { return static_cast<float>(v); });
+  int max_below = 0;
+  for (size_t j = 0; j + 1 < super_.size(); ++j)
+    max_below = std::max(max_below, (pi_[j + 1] - pi_[j]) - (super_[j + 1] - super_[j]));
+  y_.resize(n_);
+  gathered_.resize(max_below);
+}
+
+void SinglePrecisionFactor::Solve(const Eigen::Ref<const Eigen::VectorXd>& b,
+                                  Eigen::Ref<Eigen::VectorXd> x) {
+  NSIM_CHECK(n_ > 0, "SinglePrecisionFactor::Solve without a factor");
+  NSIM_CHECK(b.size() == n_ && x.size() == n_, "SinglePrecisionFactor::Solve size mismatch: n = ",
+             n_, ", b ", b.size(), ", x ", x.size());
+  for (int k = 0; k < n_; ++k) y_[k] = static_cast<float>(b[perm_[k]]);
+  const int nsuper = static_cast<int>(super_.size()) - 1;
+  // L y = P b, supernode by supernode: the triangular solve of its diagonal block, then the
+  // update of the rows below it (gathered through its row indices)
+  for (int j = 0; j < nsuper; ++j) {
+    const int k1 = super_[j], nscol = super_[j + 1] - k1;
+    const int psi = pi_[j], nsrow = pi_[j + 1] - psi, below = nsrow - nscol;
+    const BlockMap L(values_.data() + px_[j], nsrow, nscol, Eigen::OuterStride<>(nsrow));
+    auto y1 = y_.segment(k1, nscol);
+    L.topRows(nscol).triangularView<Eigen::Lower>().solveInPlace(y1);
+    if (below == 0) continue;
+    gathered_.head(below).noalias() = L.bottomRows(below) * y1;
+    const int* rows = s_.data() + psi + nscol;
+    for (int i = 0; i < below; ++i) y_[rows[i]] -= gathered_[i];
+  }
+  // L' z = y, backwards: the rows below a supernode are final when it is reached
+  for (int j = nsuper - 1; j >= 0; --j) {
+    const int k1 = super_[j], nscol = super_[j + 1] - k1;
+    const int psi = pi_[j], nsrow = pi_[j + 1] - psi, below = nsrow - nscol;
+    const BlockMap L(values_.data() + px_[j], nsrow, nscol, Eigen::OuterStride<>(nsrow));
+    auto y1 = y_.segment(k1, nscol);
+    if (below > 0) {
+      const int* rows = s_.data() + psi + nscol;
+      for (int i = 0; i < below; ++i) gathered_[i] = y_[rows[i]];
+      y1.noalias() -= L.bottomRows(below).transpose() * gathered_.head(below);
+    }
+    L.topRows(nscol).triangularView<Eigen::Lower>().transpose().solveInPlace(y1);
+  }
+  for (int k = 0; k < n_; ++k) x[perm_[k]] = static_cast<double>(y_[k]);
+}
+
+}  // namespace nsim
