@@ -34,12 +34,13 @@ TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::strin
 
 void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
   node.CheckKeys({"puncture_force", "friction_coefficient", "friction_force_per_length",
-                  "point_spacing", "tip_constraint", "contact_margin"});
+                  "point_spacing", "tip_constraint", "tip_ramp", "contact_margin"});
   node.Read("puncture_force", &t->puncture_force);
   node.Read("friction_coefficient", &t->friction_coefficient);
   node.Read("friction_force_per_length", &t->friction_force_per_length);
   node.Read("point_spacing", &t->point_spacing);
   node.Read("tip_constraint", &t->tip_constraint);
+  node.Read("tip_ramp", &t->tip_ramp);
   node.Read("contact_margin", &t->contact_margin);
 }
 

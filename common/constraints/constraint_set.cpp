@@ -100,6 +100,15 @@ void ConstraintSet::CheckPoint(int p, const char* what) const {
         Str("constraints: ", what, " point index must be in [0, ", num_points(), "), got ", p));
 }
 
+void ConstraintSet::SetSoftness(int first_row, int num_rows, double softness) {
+  if (!(first_row >= 0 && num_rows >= 0 && first_row + num_rows <= this->num_rows()))
+    throw InputError(Str("constraints: rows [", first_row, ", ", first_row + num_rows,
+                         ") are not rows of the set (", this->num_rows(), " rows)"));
+  if (!(softness >= 0.0 && std::isfinite(softness)))
+    throw InputError(Str("constraints: row softness must be finite and >= 0, got ", softness));
+  for (int i = first_row; i < first_row + num_rows; ++i) rows_[i].softness = softness;
+}
+
 int ConstraintSet::AddRow(const std::vector<ConstraintTerm>& terms, double target) {
   if (terms.empty()) throw InputError("constraints: a row needs at least one term, got 0");
   if (!std::isfinite(target))

@@ -65,6 +65,11 @@ struct ConstraintRow {
   int first_term = 0;
   int num_terms = 0;
   double target = 0.0;
+  /// The row's own compliance relative to its diagonal compliance W_ii (-), >= 0: the solve
+  /// uses W_ii (1 + softness), so the row is a spring in series with the bodies rather than a
+  /// rigid link. Alone, a bilateral row then removes the fraction 1 / (1 + softness) of its
+  /// free violation (0: rigid, the default). For a hold that fades in or out continuously.
+  double softness = 0.0;
 };
 
 /// The constraint problem of one step. Refill it every step (Clear keeps the capacity); the
@@ -122,6 +127,9 @@ class ConstraintSet {
   /// Low-level: appends a row with the given terms and target and no group; close the rows with
   /// AddGroup. Returns the row index.
   int AddRow(const std::vector<ConstraintTerm>& terms, double target);
+  /// Sets the softness (see ConstraintRow) of rows [first_row, first_row + num_rows); InputError
+  /// unless it is finite and >= 0.
+  void SetSoftness(int first_row, int num_rows, double softness);
   /// Low-level: makes the last `num_rows` rows (not yet grouped) one group of a law other than
   /// kAxialFriction (AddAxialFriction). Returns its index.
   int AddGroup(ConstraintLaw law, int num_rows, double mu = 0.0);
@@ -150,6 +158,7 @@ class ConstraintSet {
   const ConstraintTerm& term(int t) const { return terms_[t]; }
   const ConstraintGroup& group(int g) const { return groups_[g]; }
   const std::vector<ConstraintGroup>& groups() const { return groups_; }
+  const std::vector<ConstraintRow>& rows() const { return rows_; }
   const std::vector<int>& point_nodes() const { return point_nodes_; }
   const std::vector<double>& point_weights() const { return point_weights_; }
 

@@ -438,7 +438,13 @@ ConstraintSolveReport ConstraintSolver::Solve(const ConstraintSet& set) {
 
 void ConstraintSolver::Assemble(const ConstraintSet& set) {
   compliance_.Assemble(set, W_);
+  ApplyRowSoftness(set.rows(), W_);
   RecomputeDelta(set);
+}
+
+void ApplyRowSoftness(const std::vector<ConstraintRow>& rows, Eigen::MatrixXd& W) {
+  for (int i = 0; i < static_cast<int>(rows.size()); ++i)
+    if (rows[i].softness > 0.0) W(i, i) *= 1.0 + rows[i].softness;
 }
 
 void ConstraintSolver::RecomputeDelta(const ConstraintSet& set) {

@@ -5,7 +5,9 @@
 // (common/steering/constraint_snapshot.h, which builds W and delta itself) all end in
 // SolveConstraintLaws below.
 //  1. the bodies have done their free motion (x_free, v_free);
-//  2. delta_free = H x_free - target (m) and W = sum_b H_b C_b H_b^T (m/N), C_b = h^2 A_b^-1;
+//  2. delta_free = H x_free - target (m) and W = sum_b H_b C_b H_b^T (m/N), C_b = h^2 A_b^-1,
+//     with the diagonal of a soft row scaled by 1 + its softness (constraint_set.h: the row's
+//     own compliance in series with the bodies');
 //  3. lambda (N) such that the end-of-step row values r = delta_free + W lambda obey the laws of
 //     their groups (constraint_set.h):
 //       bilateral        r = 0, lambda free;
@@ -136,6 +138,10 @@ ConstraintSolveReport SolveConstraintLaws(const Eigen::MatrixXd& W, const Eigen:
                                           const ConstraintSolverConfig& config,
                                           ConstraintWorkspace& workspace, Eigen::VectorXd& lambda);
 
+/// W_ii *= 1 + rows[i].softness for every soft row (the rows' own compliance, constraint_set.h);
+/// W is the bodies' compliance of those rows, rows.size() square.
+void ApplyRowSoftness(const std::vector<ConstraintRow>& rows, Eigen::MatrixXd& W);
+
 /// Solves the constraints of a step and applies the corrections. Keeps W, delta, lambda and
 /// the compliance cache between calls; reuse one object across steps.
 class ConstraintSolver {
@@ -145,7 +151,8 @@ class ConstraintSolver {
   /// Assemble + SolveMultipliers + ApplyCorrections.
   ConstraintSolveReport Solve(const ConstraintSet& set);
 
-  /// Builds W (m/N) and delta_free (m) for `set` from the bodies' free positions.
+  /// Builds W (m/N, the soft rows' own compliance included) and delta_free (m) for `set` from
+  /// the bodies' free positions.
   void Assemble(const ConstraintSet& set);
   /// Finds lambda (N) for the W and delta of the last Assemble (set must be the same one; its
   /// kinematic points and targets may have changed if RecomputeDelta was called).

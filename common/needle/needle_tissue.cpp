@@ -16,8 +16,12 @@ namespace {
 
 // a point further ahead of the tip than this fraction of point_spacing is removed
 constexpr double kRetractionSlack = 0.1;
-// the tip constraint is skipped within this fraction of point_spacing after a seed
+// the tip constraint is skipped within this fraction of point_spacing after a seed (or, with
+// tip_ramp, softened there: its hold grows in proportion to the tip's distance from the seed)
 constexpr double kTipSkipFraction = 0.25;
+// with tip_ramp, the tip constraint is left out below this fraction of kTipSkipFraction (where
+// its hold would be at most this fraction of a rigid one)
+constexpr double kTipRampStart = 0.02;
 // barycentric slack of the point-location walk (-)
 constexpr double kWalkTolerance = 1e-9;
 // constraint-point key of the tip in each tissue (seeded points count up from 1; keys only
@@ -296,12 +300,18 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     }
 
     // tip: the tissue ahead is cut; laterally the tip follows the tissue it is in
+    const double past_seed = ts.report.depth - ts.last_seed_depth;  // tip past the last point
+    const double full_hold = kTipSkipFraction * cfg.point_spacing;
+    const double first_hold = cfg.tip_ramp ? kTipRampStart * full_hold : full_hold;
     if (ts.phase == TissuePhase::kInside && cfg.tip_constraint && ts.tip.tet >= 0 &&
-        ts.report.depth - ts.last_seed_depth >= kTipSkipFraction * cfg.point_spacing) {
+        past_seed >= first_hold) {
       // keyed: the tip moves through the tissue, its columns come from cached node columns
       const int pt = set.AddBodyPoint(b, mesh.tets[ts.tip.tet], ts.tip.bary, kTipPointKey);
       const int pn = add_needle_point(u_tip);
       state.tags.push_back(add_lateral_rows(pt, pn, z_tip_end, CouplingRowTag::Kind::kTip, t));
+      // ramp: softness full / past - 1 holds the fraction past / full of a rigid hold, from
+      // nothing at the seed to rigid a quarter spacing past it, continuous in the depth
+      if (past_seed < full_hold) set.SetSoftness(set.num_rows() - 2, 2, full_hold / past_seed - 1.0);
     }
   }
 }

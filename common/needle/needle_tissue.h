@@ -29,8 +29,14 @@
 //    the tip axially (the cutting resistance is not modelled), but laterally the tip follows
 //    the tissue: two rows orthogonal to the tip direction tie the needle tip to the tissue
 //    material point that held the tip at the step start. The tip can thus only advance along
-//    its own direction: a bevel that turns the tip steers the path. Skipped within a quarter
-//    spacing of the last seeded point (the rows would be redundant).
+//    its own direction: a bevel that turns the tip steers the path. Within a quarter spacing
+//    of the last seeded point the rows would be nearly redundant with that point's: without
+//    tip_ramp they are skipped there, so the hold appears and disappears at once when the tip
+//    crosses a quarter spacing (a loaded hold released in one step: on the default scenario
+//    the registered target jumped by 1.7 mm); with tip_ramp they are soft there
+//    (ConstraintRow::softness = quarter spacing / distance - 1): the hold grows in proportion
+//    to the tip's distance from the last point, from nothing at it to rigid at a quarter
+//    spacing, and the rows are skipped only within 2 % of that (a hold of at most 2 %).
 //    A tip found outside the mesh within 10 % of point_spacing of the entry is just not held
 //    (it is at the entry surface: just punctured, or backing out).
 //  - kExited: the tip left the tissue through its far surface; an exit point is seeded where
@@ -79,6 +85,9 @@ struct TissueCouplingConfig {
   double point_spacing = 0.013;
   /// Constrain the tip laterally to the tissue it is in (see the file comment).
   bool tip_constraint = true;
+  /// The tip's hold ramps in over the quarter spacing after a seeded point (true), or starts
+  /// at once a quarter spacing after it (false; see the file comment).
+  bool tip_ramp = false;
   /// The contact search starts this far behind the tip (m), >= 0: catches a surface that moved
   /// onto the tip during the previous step.
   double contact_margin = 2e-3;

@@ -64,6 +64,43 @@ TEST(ConstraintSolverTest, BilateralHoldsPointOnMovingTarget) {
   EXPECT_LE((solver.CalcPointForce(set, 1) + force).norm(), 1e-12);
 }
 
+// a soft row (ConstraintRow::softness s) is a spring in series with the body: alone, it removes
+// the fraction 1 / (1 + s) of the free violation, with the force of a rigid hold times 1 / (1 + s);
+// with s = 0 it is the rigid hold bit for bit; a bad softness is refused
+TEST(ConstraintSolverTest, SoftRowRemovesItsFractionOfTheViolation) {
+  const double mass = 0.5, h = 0.01;
+  const Eigen::Vector3d goal(0.002, -0.001, 0.003);  // the kinematic point, 3.7 mm away
+  auto solve = [&](double softness, Eigen::Vector3d* position, Eigen::Vector3d* force) {
+    DenseLinearBody body(MakeParticleConfig(Eigen::Vector3d::Zero(), mass, h, Eigen::Vector3d::Zero()));
+    body.SolveFreeMotion();
+    ConstraintSet set;
+    const int b = set.AddBody(body);
+    const int p = set.AddNodePoint(b, 0);
+    const int k = set.AddKinematicPoint(goal, goal);
+    set.AddBilateral(p, k, Eigen::Matrix3d::Identity());
+    if (softness > 0) set.SetSoftness(0, 3, softness);
+    ConstraintSolver solver;
+    EXPECT_TRUE(solver.Solve(set).converged);
+    *position = body.positions().col(0);
+    *force = solver.lambda();
+  };
+  Eigen::Vector3d rigid_x, rigid_f, x, f;
+  solve(0.0, &rigid_x, &rigid_f);
+  EXPECT_LE((rigid_x - goal).norm(), kHoldTolerance);
+  for (double s : {0.25, 1.0, 9.0}) {
+    solve(s, &x, &f);
+    EXPECT_LE((x - goal / (1.0 + s)).norm(), 1e-12) << s;
+    EXPECT_LE((f - rigid_f / (1.0 + s)).norm(), 1e-9 * rigid_f.norm()) << s;
+  }
+  ConstraintSet set;
+  DenseLinearBody body(MakeParticleConfig(Eigen::Vector3d::Zero(), mass, h, Eigen::Vector3d::Zero()));
+  const int b = set.AddBody(body);
+  set.AddBilateral(set.AddNodePoint(b, 0), set.AddKinematicPoint(goal, goal), Eigen::Matrix3d::Identity());
+  EXPECT_THROW(set.SetSoftness(0, 3, -1.0), InputError);
+  EXPECT_THROW(set.SetSoftness(0, 3, std::numeric_limits<double>::quiet_NaN()), InputError);
+  EXPECT_THROW(set.SetSoftness(2, 2, 1.0), InputError);
+}
+
 // two spring chains coupled by a bilateral joint: the joint impulses cancel, so the total
 // momentum changes only by the external impulse, and the joint holds
 TEST(ConstraintSolverTest, TwoCoupledBodiesConserveMomentum) {

@@ -216,6 +216,54 @@ TEST(NeedleTissueTest, RetractionRemovesThePointsBehindTheTip) {
   EXPECT_EQ(scene.stepper->set().num_rows(), 0);
 }
 
+// the tip's lateral hold after a seeded point: without tip_ramp it is off for a quarter
+// spacing and then rigid at once; with it, it holds from 2 % of that on, softened in proportion
+// (ConstraintRow::softness), so its force grows with the tip's distance from the point instead of
+// jumping from zero
+TEST(NeedleTissueTest, TipHoldRampsInAfterASeededPoint) {
+  const double quarter = 0.25 * MakeTissue().point_spacing;
+  struct Sample {
+    double past, force;
+  };
+  std::vector<Sample> samples[2];
+  for (bool ramp : {false, true}) {
+    TissueCouplingConfig tissue = MakeTissue();
+    tissue.tip_ramp = ramp;
+    Scene scene(tissue);
+    for (int k = 0; k < 40; ++k) {
+      // a slow sideways drift loads the tip's hold
+      const double past = scene.report().depth - scene.tissue().last_seed_depth;
+      const bool inside = scene.report().phase == TissuePhase::kInside;
+      const NeedleStepReport r = scene.Step(0.3e-3, Eigen::Vector3d(2e-5, 0.0, 0.0));
+      ASSERT_TRUE(r.solve.converged);
+      if (inside && scene.report().depth > 0.004) samples[ramp].push_back({past, scene.report().tip_force});
+    }
+  }
+  int early_without = 0, early_with = 0;
+  for (const Sample& s : samples[0])
+    if (s.past < quarter) {
+      EXPECT_EQ(s.force, 0.0) << "no hold within a quarter spacing without the ramp, past " << s.past;
+      ++early_without;
+    }
+  for (const Sample& s : samples[1])
+    if (s.past > 0.02 * quarter && s.past < quarter) {
+      EXPECT_GT(s.force, 0.0) << "the ramp holds from 2 % on, past " << s.past;
+      ++early_with;
+    }
+  EXPECT_GE(early_without, 3);
+  EXPECT_GE(early_with, 3);
+  // the hold grows with the distance: the force close to the point is below the force near a
+  // quarter spacing (same drift, consecutive steps)
+  double near_point = 0.0, near_quarter = 0.0;
+  for (const Sample& s : samples[1]) {
+    if (s.past > 0.02 * quarter && s.past < 0.3 * quarter) near_point = std::max(near_point, s.force);
+    if (s.past > 0.7 * quarter) near_quarter = std::max(near_quarter, s.force);
+  }
+  std::printf("tip hold with the ramp: up to %.3g N within 30 %% of a quarter spacing, %.3g N "
+              "beyond 70 %%\n", near_point, near_quarter);
+  EXPECT_LT(near_point, near_quarter);
+}
+
 TEST(NeedleTissueTest, BadConfigNamesTheKey) {
   NeedleCouplingConfig config;
   config.tissues.resize(2);
