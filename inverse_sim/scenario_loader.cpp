@@ -131,7 +131,7 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
                  InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "constraint_compliance", "friction_coefficient", "anchors",
+                 "tip_constraint", "tip_ramp", "jacobian_friction", "constraint_compliance", "friction_coefficient", "anchors",
                  "bevel", "needle"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
@@ -143,6 +143,9 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
   inv.Read("puncture_force", &s->loop.model.puncture_force);
   inv.Read("point_spacing", &s->loop.model.point_spacing);
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
+  inv.Read("tip_ramp", &s->loop.model.tip_ramp);
+  const int jacobian_friction = inv.ReadChoice("jacobian_friction", {"held", "solved"});
+  if (jacobian_friction >= 0) s->loop.model.jacobian_friction_held = jacobian_friction == 0;
   inv.Read("friction_coefficient", &s->loop.model.friction_coefficient);
   s->loop.model.anchors = ReadOrientedBoxes(inv, "anchors");
   ReadModelBevel(inv, root, &s->loop.model.bevel);
@@ -195,9 +198,11 @@ void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScen
   if (!pred.IsNull()) {
     pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
                     "pca_window", "search_lead", "search_interval", "horizon_window",
-                    "localization_delay", "displacement", "measure_latency"});
+                    "localization_delay", "displacement", "measure_latency", "model_pose"});
     pred.Read("displacement", &s->loop.prediction_displacement);
     pred.Read("measure_latency", &s->loop.measure_latency);
+    const int pose = pred.ReadChoice("model_pose", {"measured", "commanded"});
+    if (pose >= 0) s->loop.model_pose_commanded = pose == 1;
     pred.Read("enabled", &s->loop.prediction_enabled);
     std::string filter;
     if (pred.Read("filter", &filter)) s->loop.prediction.filter = ParsePredictionFilter(filter);

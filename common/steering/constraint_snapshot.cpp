@@ -66,6 +66,7 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
     }
     if (group.law == ConstraintLaw::kUnilateral) row_unilateral[group.first_row] = 1;
   }
+  set_rows_ = set.rows();  // their softness
   for (int i = 0; i < set.num_rows(); ++i) {
     const ConstraintRow& r = set.row(i);
     Row row;
@@ -157,6 +158,56 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
       ++q;
     }
   }
+  if (hold_friction_) HoldFrictionForces(solver.lambda());
+}
+
+void ConstraintSnapshot::HoldFrictionForces(const Eigen::VectorXd& lambda) {
+  NSIM_CHECK(lambda.size() == num_rows(), "HoldFrictionForces needs the step's multipliers");
+  const int B = num_body_points_;
+  // the held rows' forces on the body points (their directions at the captured pose)
+  Eigen::VectorXd held = Eigen::VectorXd::Zero(3 * B);
+  std::vector<char> held_row(rows_.size(), 0);
+  bool any = false;
+  for (const ConstraintGroup& group : groups_) {
+    if (group.law != ConstraintLaw::kAxialFriction) continue;
+    for (int i = group.first_row; i < group.first_row + group.num_rows; ++i) {
+      held_row[i] = 1;
+      any = true;
+      const Row& row = rows_[i];
+      for (int t = row.first_term; t < row.first_term + row.num_terms; ++t)
+        if (terms_[t].body_point >= 0)
+          held.segment<3>(3 * terms_[t].body_point) += lambda[i] * terms_[t].direction;
+    }
+  }
+  if (!any) return;
+  // their corrections become part of the free motion
+  const Eigen::VectorXd shift = G_ * held;
+  for (int b = 0; b < B; ++b) free_[b] += shift.segment<3>(3 * b);
+  const Eigen::VectorXd probe_shift = P_ * held;
+  for (int q = 0; q < num_probes(); ++q) probe_free_[q] += probe_shift.segment<3>(3 * q);
+  // and the rows leave the problem (the groups renumbered; only axial groups name another)
+  std::vector<int> new_index(rows_.size(), -1);
+  std::vector<Row> rows;
+  std::vector<ConstraintRow> set_rows;
+  for (size_t i = 0; i < rows_.size(); ++i) {
+    if (held_row[i]) continue;
+    new_index[i] = static_cast<int>(rows.size());
+    rows.push_back(rows_[i]);
+    set_rows.push_back(set_rows_[i]);
+  }
+  std::vector<ConstraintGroup> groups;
+  bool all_bilateral = true;
+  for (const ConstraintGroup& group : groups_) {
+    if (group.law == ConstraintLaw::kAxialFriction) continue;
+    ConstraintGroup g = group;
+    g.first_row = new_index[group.first_row];
+    all_bilateral = all_bilateral && g.law == ConstraintLaw::kBilateral;
+    groups.push_back(g);
+  }
+  rows_ = std::move(rows);
+  set_rows_ = std::move(set_rows);
+  groups_ = std::move(groups);
+  if (all_bilateral) config_.method = ConstraintMethod::kDirect;
 }
 
 ConstraintSolveReport ConstraintSnapshot::Solve(
@@ -195,6 +246,7 @@ ConstraintSolveReport ConstraintSnapshot::Solve(
   }
   ws.HG.noalias() = ws.H * G_;
   ws.W.noalias() = ws.HG * ws.H.transpose();
+  ApplyRowSoftness(set_rows_, ws.W);
   const ConstraintSolveReport report =
       SolveConstraintLaws(ws.W, ws.delta, groups_, config_, ws.solver, ws.lambda);
 

@@ -34,9 +34,11 @@
 // turn for the default scenario's 13 cm steel needle at h = 20 ms) times the axial slip of
 // the needle over the step.
 //
+// Soft rows (ConstraintRow::softness) keep their softness: W'_ii is scaled as in the step.
 // The multipliers come from the constraint solver's SolveConstraintLaws (constraint_solver.h)
 // with the captured solver's settings: bilateral groups alone by the direct LDLT solve (as the
-// step itself), with unilateral (contact) or axial friction rows by the active set. Coulomb
+// step itself), with unilateral (contact) or axial friction rows by the active set (or the
+// axial friction rows held at the step's forces: set_hold_friction). Coulomb
 // friction groups are not supported (Capture throws): the inverse model has none.
 
 #include <Eigen/Core>
@@ -100,6 +102,18 @@ class ConstraintSnapshot {
                const std::vector<SnapshotBody>& bodies,
                const std::vector<char>& moves_with_needle, const Eigen::Isometry3d& X_WN);
 
+  /// Held friction (for the Captures that follow): the axial friction rows (kAxialFriction)
+  /// keep the forces of the captured step's solve (solver.lambda(), in their captured
+  /// directions) instead of being solved again: their corrections join the free motion and
+  /// the rows leave the problem. A perturbed needle then slides through the tissue with the
+  /// step's friction load on it, as a needle that keeps moving does (kinetic friction), where
+  /// the solved law would let a small perturbation stick and drag the tissue along: the
+  /// Jacobian of an insertion would then see no axial motion of the tip against its target.
+  /// The unperturbed solve still reproduces the committed step (the other rows' multipliers
+  /// are the step's, given the held forces); perturbed solves no longer equal a re-simulation
+  /// of the step when a friction row would have switched between stick and slip.
+  void set_hold_friction(bool hold) { hold_friction_ = hold; }
+
   /// Solves the captured step with the needle at X_WN_new (end of step) and writes the probes'
   /// corrected positions (m, world), one per probe, and the multipliers (N) into `workspace`.
   /// The report says whether the solve converged (see constraint_solver.h).
@@ -131,6 +145,7 @@ class ConstraintSnapshot {
   std::vector<Term> terms_;
   std::vector<Row> rows_;
   std::vector<ConstraintGroup> groups_;  // the set's laws
+  std::vector<ConstraintRow> set_rows_;  // the set's rows (their softness)
   ConstraintSolverConfig config_;        // the captured solver's, direct or the active set
   int num_body_points_ = 0;
   std::vector<Eigen::Vector3d> free_;  // free positions of the body points (m)
@@ -140,6 +155,10 @@ class ConstraintSnapshot {
   // free-position sensitivities to the base pose (3B x 6, 3 #probes x 6); empty: none
   Eigen::MatrixXd point_sensitivity_, probe_sensitivity_;
   Eigen::Isometry3d X_WN_ = Eigen::Isometry3d::Identity();
+  bool hold_friction_ = false;
+
+  // the held-friction transformation of the captured problem (set_hold_friction)
+  void HoldFrictionForces(const Eigen::VectorXd& lambda);
 };
 
 }  // namespace nsim

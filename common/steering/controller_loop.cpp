@@ -158,6 +158,11 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
           input.p_WM[m] = frame.p_WM[m] + (input.p_WM[m] - fit_now_[m]);
       }
       score_.AddPrediction(t + r.horizon, input.p_WM, frame.p_WM);
+      // the needle where the robot will be when the markers are where they are predicted
+      if (config_.model_pose_commanded) {
+        if (input.X_WE_commanded) input.X_WE = *input.X_WE_commanded;
+        if (input.q_commanded) input.q = *input.q_commanded;
+      }
     } else {
       input.p_WM = frame.p_WM;
     }

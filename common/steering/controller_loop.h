@@ -63,6 +63,14 @@ struct ControllerLoopConfig {
   /// Algorithm 1 scores 1 frame ahead; a window chosen for 1 frame and used 6 frames ahead gave
   /// marker nRMS of 450 % at a 100 ms latency).
   bool search_lead_auto = true;
+  /// prediction.model_pose `commanded`: when the model registers to markers predicted over the
+  /// horizon (the loop's latency) and a command is in flight (control.compensate_in_flight),
+  /// the model's needle is put at the last commanded pose, where the robot will be when the
+  /// predicted markers are reached, instead of the measured one (`measured`): the model then
+  /// simulates one instant, the markers and the needle both at t + horizon, and the law's
+  /// in-flight motion is zero. Without prediction (or before the predictor is ready, or when
+  /// the robot held its last command) the model uses the measured pose either way.
+  bool model_pose_commanded = false;
   HorizonConfig horizon;
 };
 

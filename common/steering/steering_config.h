@@ -67,11 +67,18 @@ struct InverseModelConfig {
   double point_spacing = 0.013;
   /// Lateral tip constraint in the liver (common/needle, needle_tissue.h).
   bool tip_constraint = true;
+  /// The tip hold ramps in after each trajectory point (TissueCouplingConfig::tip_ramp).
+  bool tip_ramp = false;
   /// Coulomb coefficient of the needle's axial friction in the model liver (-), >= 0 (YAML
   /// inverse.friction_coefficient): the same law as the patient's needle (an axial friction row
   /// per trajectory point, common/needle/needle_tissue.h), with the model's own normal forces.
   /// 0: frictionless, every row bilateral or a contact.
   double friction_coefficient = 0.0;
+  /// With friction: the Jacobian's frozen step holds the friction rows at the step's forces (a
+  /// sliding needle, ConstraintSnapshot::set_hold_friction; YAML inverse.jacobian_friction:
+  /// held) instead of solving their law again (solved), under which a small perturbation
+  /// sticks and drags the model tissue: the Jacobian then hardly sees the needle advance.
+  bool jacobian_friction_held = true;
   /// Regions of the model liver held fixed (YAML inverse.anchors, boxes in the world frame):
   /// where the organ is attached, as the planning images show it. Empty: the model is held by
   /// the markers alone. Every box must enclose a model node, and no marker may lie in one.
@@ -155,11 +162,13 @@ struct SteeringControlConfig {
   bool compensate_in_flight = true;
   /// The iiwa (base pose, limits) for kJoint7.
   Iiwa14Config iiwa;
-  /// kJoint7: the redundancy's use. The objectives (at most 7 rows, usually 5-6 independent)
-  /// leave the iiwa a null space; each step adds -null_space_gain (q - q_mid), projected into
-  /// the null space of the Jacobian (I - J_r^+ J), so the joints drift toward mid-range without
-  /// moving the objectives to first order (Liegeois' joint-limit avoidance). 0: the minimum-norm
-  /// step only. (1/step, in [0, 1])
+  /// kJoint7: the redundancy's use. The iiwa's seventh joint leaves the flange a one-dimensional
+  /// self-motion (the null space of the flange Jacobian); each step adds -null_space_gain
+  /// (q - q_mid) projected on it, so the joints drift toward mid-range without moving the flange
+  /// or the needle (Liegeois' joint-limit avoidance; the step's second-order flange motion is
+  /// taken back by one Newton step). The law's own step moves the flange at most
+  /// law.max_translation_step and max_rotation_step, as the Cartesian law's does. 0: the
+  /// minimum-norm step only. (1/step, in [0, 1])
   double null_space_gain = 0.02;
   /// kJoint7: the commanded joints stay this far inside the iiwa's position limits (rad), >= 0.
   double joint_limit_margin = 0.05;

@@ -90,6 +90,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   liver.friction_force_per_length = 0.0;
   liver.point_spacing = config.point_spacing;
   liver.tip_constraint = config.tip_constraint;
+  liver.tip_ramp = config.tip_ramp;
   coupling.tissues = {liver};
   coupling.bevel = config.bevel;
   coupling_ = std::make_unique<NeedleTissueCoupling>(coupling, std::vector<const TetMesh*>{&mesh_});
@@ -344,6 +345,7 @@ SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& 
 
   constraint_solver_.Assemble(set_);
   report.solve = constraint_solver_.SolveMultipliers(set_);
+  snapshot_.set_hold_friction(config_.jacobian_friction_held);
   std::vector<char> moves(set_.num_points(), 0);
   for (int p = first_needle_point; p < set_.num_points(); ++p) moves[p] = set_.point(p).body < 0;
   if (beam_body_) {

@@ -141,6 +141,80 @@ TEST(ConstraintSnapshotTest, PerturbedPoseGivesTheFullSolveWithTheNeedleMoved) {
   EXPECT_GT((ws.lambda - solver.lambda()).cwiseAbs().maxCoeff(), 1e-3 * scale);
 }
 
+// soft rows (ConstraintRow::softness) keep their softness in the perturbed solves: the same
+// as a full solve of the moved step with the same soft rows
+TEST(ConstraintSnapshotTest, SoftRowsStaySoftUnderPerturbation) {
+  auto soften = [](Step& step) { step.set.SetSoftness(3, 2, 1.5); };  // point 1's lateral rows
+  Step step;
+  step.Build(CapturedPose(), CapturedPose());
+  soften(step);
+  ConstraintSolver solver;
+  solver.Assemble(step.set);
+  solver.SolveMultipliers(step.set);
+  ConstraintSnapshot snapshot;
+  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  SnapshotWorkspace ws;
+  std::vector<Eigen::Vector3d> probes;
+  snapshot.Solve(PerturbedPose(), ws, &probes);
+  Step moved, rigid;
+  moved.Build(PerturbedPose(), CapturedPose());
+  soften(moved);
+  rigid.Build(PerturbedPose(), CapturedPose());
+  ConstraintSolver full_solver, rigid_solver;
+  ConstraintSolveReport full, rigid_report;
+  const std::vector<Eigen::Vector3d> expected = SolveFully(moved, full_solver, &full);
+  const std::vector<Eigen::Vector3d> stiff = SolveFully(rigid, rigid_solver, &rigid_report);
+  ASSERT_TRUE(full.converged);
+  double softened = 0.0;
+  for (size_t q = 0; q < probes.size(); ++q) {
+    EXPECT_LT((probes[q] - expected[q]).norm(), 1e-12) << "probe " << q;
+    softened = std::max(softened, (expected[q] - stiff[q]).norm());
+  }
+  EXPECT_GT(softened, 1e-6) << "the softness changed nothing: the comparison is trivial";
+}
+
+// held friction (set_hold_friction): the friction rows leave the problem with the step's
+// forces; at the captured pose the other rows' multipliers and the probes are the step's, and a
+// perturbed needle is solved without friction rows (bilateral and contact rows only)
+TEST(ConstraintSnapshotTest, HeldFrictionReproducesTheStepAndDropsTheFrictionRows) {
+  Step step;
+  step.Build(CapturedPose(), CapturedPose());
+  ConstraintSolver solver;
+  ConstraintSolveReport full;
+  Step reference;
+  reference.Build(CapturedPose(), CapturedPose());
+  ConstraintSolver reference_solver;
+  const std::vector<Eigen::Vector3d> expected = SolveFully(reference, reference_solver, &full);
+  solver.Assemble(step.set);
+  solver.SolveMultipliers(step.set);
+  ConstraintSnapshot snapshot;
+  snapshot.set_hold_friction(true);
+  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  EXPECT_EQ(snapshot.num_rows(), step.set.num_rows() - 3);  // the three axial rows held
+  SnapshotWorkspace ws;
+  std::vector<Eigen::Vector3d> probes;
+  const ConstraintSolveReport r = snapshot.Solve(CapturedPose(), ws, &probes);
+  EXPECT_TRUE(r.converged);
+  EXPECT_EQ(r.num_slipping, 0);  // no friction row left to slip
+  for (size_t q = 0; q < probes.size(); ++q)
+    EXPECT_LT((probes[q] - expected[q]).norm(), 1e-12) << "probe " << q;
+  // the remaining rows' multipliers are the step's (rows 0-2 anchor, then 2 lateral + 1 axial per
+  // needle point, then the contact)
+  const Eigen::VectorXd& step_lambda = solver.lambda();
+  const double scale = step_lambda.cwiseAbs().maxCoeff();
+  int kept = 0;
+  for (int i = 0; i < step.set.num_rows(); ++i) {
+    const bool axial = i >= 3 && i < 12 && (i - 3) % 3 == 2;
+    if (axial) continue;
+    EXPECT_NEAR(ws.lambda[kept], step_lambda[i], 1e-10 * scale) << "row " << i;
+    ++kept;
+  }
+  // perturbed: a solve of the bilateral and contact rows only (the method of contacts)
+  const ConstraintSolveReport moved = snapshot.Solve(PerturbedPose(), ws, &probes);
+  EXPECT_TRUE(moved.converged);
+  EXPECT_EQ(moved.method, ConstraintMethod::kActiveSet);
+}
+
 TEST(ConstraintSnapshotTest, RejectsCoulombFrictionContacts) {
   Step step;
   step.set.Clear();

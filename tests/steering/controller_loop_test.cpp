@@ -91,6 +91,45 @@ TEST(ControllerLoopTest, AnswersEachFrameWithATargetForItsSequenceNumber) {
   EXPECT_EQ(loops.controller.counts().answered, 5u);
 }
 
+// prediction.model_pose: once the markers are predicted over the horizon, the `commanded` model
+// puts its needle at the last target sent (where the robot will be), the `measured` one at the
+// frame's pose; with a latency of 3 steps the two differ
+TEST(ControllerLoopTest, PredictedModelPutsTheNeedleAtTheCommandedPose) {
+  Loops loops;
+  ControllerLoopConfig config = loops.inverse.loop;
+  config.prediction.pca_window = 40;  // ready after 40 frames
+  config.prediction.window_max = 20;
+  config.prediction.optimize_window = false;
+  config.model_pose_commanded = true;
+  ControllerLoop commanded(config, ReadGmshMesh(loops.inverse.mesh_path));
+  config.model_pose_commanded = false;
+  ControllerLoop measured(config, ReadGmshMesh(loops.inverse.mesh_path));
+  const double length = loops.inverse.loop.model.needle.length;
+  LockstepTargets delay(3);
+  std::optional<RobotTarget> last_commanded;
+  int compared = 0;
+  double largest_gap = 0.0;
+  for (int k = 0; k < 80; ++k) {
+    const SensorFrame frame = loops.patient.frame();
+    const std::optional<RobotTarget> target = commanded.Step(frame);
+    ASSERT_TRUE(target.has_value()) << commanded.counts().last_rejection;
+    ASSERT_TRUE(measured.Step(frame).has_value()) << measured.counts().last_rejection;
+    const Eigen::Vector3d tip_measured = CalcTipPosition(frame.X_WE, length);
+    EXPECT_LT((measured.last_record().model_tip - tip_measured).norm(), 1e-12) << k;
+    if (commanded.last_record().predicted && last_commanded && frame.applied_seq != SensorFrame::kNoTarget) {
+      const Eigen::Vector3d tip_commanded = CalcTipPosition(last_commanded->X_WE, length);
+      EXPECT_LT((commanded.last_record().model_tip - tip_commanded).norm(), 1e-12) << k;
+      largest_gap = std::max(largest_gap, (tip_commanded - tip_measured).norm());
+      ++compared;
+    }
+    last_commanded = target;
+    delay.Add(*target);
+    loops.patient.Step(delay.TakeFor(k));
+  }
+  EXPECT_GE(compared, 20);
+  EXPECT_GT(largest_gap, 1e-4) << "commanded and measured poses never differed";
+}
+
 // the closed loop in-process, lockstep with a latency of 1 step
 TEST(ControllerLoopTest, ClosedLoopInProcessInsertsTowardsTheTarget) {
   Loops loops;

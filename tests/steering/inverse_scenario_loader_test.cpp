@@ -78,6 +78,31 @@ TEST(InverseScenarioLoaderTest, ReadsTheModelLiversSolverKeys) {
       << bad;
 }
 
+// the model's needle coupling and prediction options: defaults, values, and bad choices by key
+TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
+  const InverseScenario plain = Load(DefaultText());
+  EXPECT_FALSE(plain.loop.model.tip_ramp);
+  EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
+  EXPECT_FALSE(plain.loop.model_pose_commanded);
+  std::string text = Edited(DefaultText(), kInverseKey,
+                            "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
+  text = Edited(text, "  displacement: true", "  model_pose: commanded\n  displacement: true");
+  const InverseScenario s = Load(text);
+  EXPECT_TRUE(s.loop.model.tip_ramp);
+  EXPECT_FALSE(s.loop.model.jacobian_friction_held);
+  EXPECT_TRUE(s.loop.model_pose_commanded);
+  const std::string friction =
+      LoadError(Edited(DefaultText(), kInverseKey, "  jacobian_friction: sticky\n" + kInverseKey));
+  EXPECT_NE(friction.find("inverse.jacobian_friction: expected one of held, solved, got 'sticky'"),
+            std::string::npos)
+      << friction;
+  const std::string pose = LoadError(
+      Edited(DefaultText(), "  displacement: true", "  model_pose: future\n  displacement: true"));
+  EXPECT_NE(pose.find("prediction.model_pose: expected one of measured, commanded, got 'future'"),
+            std::string::npos)
+      << pose;
+}
+
 TEST(InverseScenarioLoaderTest, BevelIsOffByDefault) {
   const InverseScenario s = Load(DefaultText());
   EXPECT_FALSE(s.loop.model.bevel.enabled);

@@ -89,6 +89,7 @@ struct ModelVariant {
   double friction_coefficient;
   bool anchored;
   bool bevel = false;  // the bevel tip load on (roll 0.7 rad)
+  bool friction_held = false;  // the Jacobian's frozen step holds the friction forces
 };
 
 class SteeringSimulationVariantTest : public SteeringSimulationTest,
@@ -96,6 +97,7 @@ class SteeringSimulationVariantTest : public SteeringSimulationTest,
  protected:
   SteeringSimulationVariantTest() {
     model_.friction_coefficient = GetParam().friction_coefficient;
+    model_.jacobian_friction_held = GetParam().friction_held;
     if (GetParam().anchored) model_.anchors = {PosteriorAnchor()};
     model_.bevel.enabled = GetParam().bevel;
     bevel_angle_ = 0.7;
@@ -105,6 +107,7 @@ class SteeringSimulationVariantTest : public SteeringSimulationTest,
 INSTANTIATE_TEST_SUITE_P(Models, SteeringSimulationVariantTest,
                          ::testing::Values(ModelVariant{"plain", 0.0, false},
                                            ModelVariant{"friction", 0.1, false},
+                                           ModelVariant{"friction_held", 0.1, false, false, true},
                                            ModelVariant{"anchored", 0.0, true},
                                            ModelVariant{"bevel", 0.0, false, true}),
                          [](const auto& info) { return std::string(info.param.name); });
@@ -138,6 +141,9 @@ TEST_P(SteeringSimulationVariantTest, UnperturbedSolveReproducesTheCommittedStep
 }
 
 TEST_P(SteeringSimulationVariantTest, PerturbedSolveEqualsFullResimulation) {
+  if (GetParam().friction_held)
+    GTEST_SKIP() << "held friction forces are not the re-simulated law (see "
+                    "HeldFrictionLetsThePerturbedNeedleSlide)";
   auto sim = Advance(kInsideSteps);
   const Eigen::Isometry3d X_nominal = InsertionPose(X_WF0_, dir_, kInsideSteps);
   const SteeringEvaluation nominal = [&] {
@@ -278,6 +284,53 @@ TEST_F(SteeringSimulationTest, AxialFrictionDragsTheTissueAlongTheNeedle) {
   const Eigen::Vector3d with = rubbed.CalcPathPositions().back() - path_.target_W;
   const Eigen::Vector3d without = plain->CalcPathPositions().back() - path_.target_W;
   EXPECT_GT(with.dot(dir_), without.dot(dir_));
+}
+
+// With held friction (the default with friction) the Jacobian's frozen step lets a perturbed
+// needle slide through the tissue under the step's friction load. A needle at rest in the
+// tissue (the steady state of a controlled insertion) sticks: with the law solved again, a
+// small axial perturbation drags the tissue around the needle along (the friction changes
+// within its cone), and the Jacobian would see the tip move with its target rather than
+// against it. Held, the tissue does not follow. (Over a step in which the needle advances, the
+// rows slip and a perturbation smaller than the advance does not reverse them: both agree.)
+TEST_F(SteeringSimulationTest, HeldFrictionLetsThePerturbedNeedleSlide) {
+  const Eigen::Isometry3d X = InsertionPose(X_WF0_, dir_, kInsideSteps);
+  double dragged[2] = {0.0, 0.0};  // largest axial motion of a path target (m)
+  int sticking = 0;
+  for (bool held : {false, true}) {
+    InverseModelConfig friction = model_;
+    friction.friction_coefficient = 0.1;
+    friction.jacobian_friction_held = held;
+    SteeringSimulation sim(friction, path_, mesh_, X_WF0_);
+    // the liver moves under the needle as the markers breathe: lateral loads, so friction
+    for (int i = 1; i <= kInsideSteps; ++i)
+      sim.Step(BreathingMarkers(friction, 4 * i), InsertionPose(X_WF0_, dir_, i));
+    for (int i = 0; i < 3; ++i) sim.Step(BreathingMarkers(friction, 4 * kInsideSteps), X);  // at rest
+    if (!held)
+      for (const NeedlePathPoint& p : sim.liver_coupling().points) sticking += p.slipping ? 0 : 1;
+    SnapshotWorkspace ws;
+    const SteeringEvaluation nominal = sim.EvaluateAt(X, ws);
+    const std::vector<Eigen::Vector3d> committed = sim.CalcPathPositions();
+    for (size_t i = 0; i < committed.size(); ++i)  // the step itself either way
+      EXPECT_LT((nominal.p_WPath[i] - committed[i]).norm(), 1e-10) << held << " " << i;
+    for (double shift : {-0.3e-3, 0.3e-3}) {  // a Jacobian perturbation's order
+      Eigen::Isometry3d perturbed = X;
+      perturbed.translation() += shift * dir_;
+      const SteeringEvaluation moved = sim.EvaluateAt(perturbed, ws);
+      EXPECT_TRUE(moved.solve.converged);
+      for (size_t i = 0; i < committed.size(); ++i)
+        dragged[held] = std::max(dragged[held],
+                                 std::abs((moved.p_WPath[i] - nominal.p_WPath[i]).dot(dir_)));
+      EXPECT_NEAR((moved.p_WTip - nominal.p_WTip).dot(dir_), shift, 1e-12);  // rigid needle
+    }
+  }
+  std::printf("0.3 mm axial perturbations of a needle at rest (%d of its points sticking): the "
+              "path targets move up to %.4f mm with the friction law solved, %.6f mm with the "
+              "forces held\n",
+              sticking, 1e3 * dragged[0], 1e3 * dragged[1]);
+  EXPECT_GT(sticking, 0);
+  EXPECT_GT(dragged[0], 0.02e-3) << "the solved law should drag the tissue along";
+  EXPECT_LT(dragged[1], 0.05 * dragged[0]);
 }
 
 // Anchored nodes never move; the rest of the model does; bad boxes are refused by name
