@@ -1,5 +1,6 @@
 #include "common/steering/steering_controller.h"
 
+#include <algorithm>
 #include <chrono>
 #include <Eigen/SVD>
 #include <cmath>
@@ -7,6 +8,7 @@
 #include "common/control/control_law.h"
 #include "common/control/finite_difference_jacobian.h"
 #include "common/core/error.h"
+#include "common/robot/pose_math.h"
 
 namespace nsim {
 namespace {
@@ -31,6 +33,9 @@ SteeringController::SteeringController(const InverseModelConfig& model,
   sim_ = std::make_unique<SteeringSimulation>(model, path, mesh, X_WE0);
   X_WN_step_ = sim_->X_WN();
   switch_distance_ = path.switching.switch_distance;
+  needle_p_FBase_ = model.needle.p_FBase;
+  needle_axis_F_ = model.needle.axis_F;
+  roll_free_ = !model.bevel.enabled;
 }
 
 SteeringController::~SteeringController() = default;
@@ -204,13 +209,15 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     }
     const JointControlOutput law = CalcJointTarget(base, out.J, out.e_expected, k, control_.law);
     out.valid = law.valid && status.all_finite && converged;
-    Vector7d q_target = law.q_target;
+    // the flange no faster than the Cartesian law may move it (max_translation_step and
+    // max_rotation_step per step), whatever the joint step's cap allows
+    Vector7d q_target = base + LimitFlangeMotion(base, law.q_target - base, &out.step_limited);
+    out.step_limited = out.step_limited || law.step_limited;
     if (out.valid && control_.null_space_gain > 0) {
-      out.null_space_step = CalcNullSpaceStep(out.J, input.q);
+      out.null_space_step = CalcNullSpaceStep(q_target);
       q_target += out.null_space_step;
     }
     out.q_target = out.valid ? ClampWithMargin(q_target) : input.q;
-    out.step_limited = law.step_limited;
     out.X_WE_target = CalcFlangePose(out.q_target);
   }
   const auto t4 = Clock::now();
@@ -221,14 +228,57 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   return out;
 }
 
-Vector7d SteeringController::CalcNullSpaceStep(const Eigen::MatrixXd& J,
-                                               const Vector7d& q) const {
-  if (!J.allFinite() || J.cols() != kIiwaNumJoints || J.rows() == 0) return Vector7d::Zero();
-  // the projector on the exact null space of J's significant part: N = I - V_r V_r^T over the
-  // right singular vectors whose singular values exceed kRankTolerance sigma_max (the
-  // regularized inverse's J_r^+ J is no projector: its weakly seen directions leak)
+Vector7d SteeringController::LimitFlangeMotion(const Vector7d& q, const Vector7d& dq,
+                                               bool* limited) const {
+  *limited = false;
+  if (!dq.allFinite() || !q.allFinite()) return dq;
+  Iiwa14Kinematics kinematics;
+  iiwa_.CalcForwardKinematics(q, &kinematics);
+  Jacobian67 J_F;
+  iiwa_.CalcToolJacobian(kinematics, &J_F);  // the tool is the flange (MakeFlangeIiwaConfig)
+  const Vector6d twist = J_F * dq;
+  const double translation = twist.head<3>().norm(), rotation = twist.tail<3>().norm();
+  const double scale = std::min({1.0, control_.law.max_translation_step / translation,
+                                 control_.law.max_rotation_step / rotation});
+  if (!(scale < 1.0)) return dq;
+  *limited = true;
+  return scale * dq;
+}
+
+Eigen::MatrixXd SteeringController::CalcNeedleMotionRows(const Eigen::Isometry3d& X_WF) const {
+  // the needle's base point and axis in W; a twist [v_F; w] of the flange (v_F at its origin)
+  // moves the base point by v_F + w x (p_B - p_F)
+  const Eigen::Vector3d p_B = X_WF * needle_p_FBase_;
+  const Eigen::Vector3d a = X_WF.linear() * needle_axis_F_.normalized();
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(roll_free_ ? 5 : 6, 6);
+  M.block<3, 3>(0, 0).setIdentity();
+  M.block<3, 3>(0, 3) = -Skew(p_B - X_WF.translation());
+  if (!roll_free_) {
+    M.block<3, 3>(3, 3).setIdentity();
+  } else {
+    // the turn about the two directions across the needle; its roll is free
+    Eigen::Vector3d t1, t2;
+    CalcTangentBasis(a, t1, t2);
+    M.block<1, 3>(3, 3) = t1.transpose();
+    M.block<1, 3>(4, 3) = t2.transpose();
+  }
+  return M;
+}
+
+Vector7d SteeringController::CalcNullSpaceStep(const Vector7d& q) const {
+  if (!q.allFinite()) return Vector7d::Zero();
+  Iiwa14Kinematics kinematics;
+  iiwa_.CalcForwardKinematics(q, &kinematics);
+  Jacobian67 J_F;
+  iiwa_.CalcToolJacobian(kinematics, &J_F);  // the tool is the flange (MakeFlangeIiwaConfig)
+  const Eigen::Isometry3d X_before = kinematics.X_WT;
+  const Eigen::MatrixXd M = CalcNeedleMotionRows(X_before);
+  const Eigen::MatrixXd J_N = M * J_F;  // the needle's motion: its base point and direction
+  // the projector on J_N's null space: the arm's self-motion and, without a bevel, the roll
+  // about the needle's own axis (neither moves a point of the needle to first order); its
+  // significant singular values only, as near a singularity
   constexpr double kRankTolerance = 1e-3;
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J_N, Eigen::ComputeFullV);
   const Eigen::VectorXd& sigma = svd.singularValues();
   Eigen::Matrix<double, 7, 7> N = Eigen::Matrix<double, 7, 7>::Identity();
   for (int i = 0; i < sigma.size(); ++i)
@@ -238,7 +288,18 @@ Vector7d SteeringController::CalcNullSpaceStep(const Eigen::MatrixXd& J,
   const double largest = step.cwiseAbs().maxCoeff();
   if (!std::isfinite(largest)) return Vector7d::Zero();
   if (largest > control_.law.max_joint_step) step *= control_.law.max_joint_step / largest;
-  return step;
+  // second order: a finite step along the null space still moves the needle by O(|step|^2)
+  // (0.1 mm for 0.01 rad a joint), which the law would have to correct every step; one Newton
+  // step on the needle's pose takes it back (to third order)
+  const Eigen::Isometry3d X_after = iiwa_.CalcToolPose(q + step);
+  Vector6d drift;
+  drift.head<3>() = X_after.translation() - X_before.translation();
+  drift.tail<3>() = LogSO3(X_after.linear() * X_before.linear().transpose());
+  const Eigen::VectorXd needle_drift = M * drift;
+  const Eigen::MatrixXd JJt = J_N * J_N.transpose();
+  const Vector7d correction = J_N.transpose() * JJt.ldlt().solve(needle_drift);
+  const Vector7d corrected = step - correction;
+  return corrected.allFinite() ? corrected : Vector7d::Zero();
 }
 
 Vector7d SteeringController::ClampWithMargin(const Vector7d& q) const {

@@ -76,7 +76,7 @@ struct SteeringOutput {
   Eigen::Vector3d p_WTarget = Eigen::Vector3d::Zero();  ///< model's current path target (m)
   Eigen::Vector3d p_WFinal = Eigen::Vector3d::Zero();   ///< model's final target (m)
   int num_perturbations = 0;
-  /// kJoint7: the joint-limit avoidance step added in the Jacobian's null space (rad)
+  /// kJoint7: the joint-limit avoidance step added in the arm's self-motion (rad)
   Vector7d null_space_step = Vector7d::Zero();
   int num_unconverged_solves = 0;  ///< constraint solves of this step that did not converge
   SteeringStepReport model;
@@ -116,9 +116,19 @@ class SteeringController {
   const Iiwa14Model& iiwa() const { return iiwa_; }
 
  private:
-  /// -null_space_gain (q - q_mid) projected into the null space of J (I - J_r^+ J), with the
-  /// regularized inverse of the law, capped at the law's max_joint_step.
-  Vector7d CalcNullSpaceStep(const Eigen::MatrixXd& J, const Vector7d& q) const;
+  /// -null_space_gain (q - q_mid) projected into the null space of the needle's motion at q
+  /// (the arm's self-motion and, without a bevel in the model, the roll about the needle's own
+  /// axis: no point of the needle moves), capped at the law's max_joint_step, plus the Newton
+  /// correction of the needle's second-order motion.
+  Vector7d CalcNullSpaceStep(const Vector7d& q) const;
+  /// The rows that map a flange twist [v_F; w] (W, v_F at the flange origin) to the needle's
+  /// motion: its base point's velocity and its angular velocity, or (roll_free_) only the two
+  /// components of it across the needle's axis.
+  Eigen::MatrixXd CalcNeedleMotionRows(const Eigen::Isometry3d& X_WF) const;
+  /// The joint step dq from q scaled down (direction kept) so that the flange moves at most
+  /// control.law.max_translation_step and turns at most max_rotation_step to first order;
+  /// *limited tells whether it was.
+  Vector7d LimitFlangeMotion(const Vector7d& q, const Vector7d& dq, bool* limited) const;
   /// q clamped into the iiwa's limits shrunk by control.joint_limit_margin.
   Vector7d ClampWithMargin(const Vector7d& q) const;
   /// The objective vector of `phase` from one evaluation of the frozen step.
@@ -134,6 +144,10 @@ class SteeringController {
   Eigen::Vector3d p_WC_ = Eigen::Vector3d::Zero();  // current entry point (m)
   Eigen::Isometry3d X_WN_step_ = Eigen::Isometry3d::Identity();
   mutable SnapshotWorkspace workspace_;
+  // the needle on the flange, for the null-space step
+  Eigen::Vector3d needle_p_FBase_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d needle_axis_F_ = Eigen::Vector3d::UnitZ();
+  bool roll_free_ = true;  // no bevel in the model: the needle's roll is free
 };
 
 /// The iiwa model used by the controller: control.iiwa with the tool at the flange.

@@ -64,6 +64,8 @@ TEST(SteeringControllerTest, JacobianOutsideTissueEqualsAnalyticMatrix) {
   EXPECT_EQ(out.num_perturbations, 12);
 }
 
+constexpr double kNeedleLength = 0.13;  // m, for the needle motion of a null-space step
+
 struct LoopResult {
   double final_error = 0.0;  // plant tip to plant target (m)
   double model_error = 0.0;  // the controller's own estimate (m)
@@ -73,6 +75,11 @@ struct LoopResult {
   double null_leak = 0.0;  // max over steps of |J n| / (|J| |n|), n the null-space step
   double null_step_sum = 0.0;  // sum of |n| over the steps (rad)
   double min_limit_distance = 1e9;  // closest any commanded joint came to its limit (rad)
+  double max_flange_step = 0.0;  // largest commanded flange translation in one step (m), kJoint7
+  double max_flange_turn = 0.0;  // largest commanded flange rotation in one step (rad), kJoint7
+  // largest motion of a needle point (base, or tip as if 0.13 m along the axis) that a
+  // null-space step caused (m)
+  double max_null_flange_motion = 0.0;
 };
 
 // closed loop: controller (E factor `model_factor`) drives a plant model (factor 1)
@@ -110,6 +117,22 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
     const SteeringOutput out = controller.Update(input);
     EXPECT_TRUE(out.valid) << "step " << i;
     EXPECT_EQ(out.num_unconverged_solves, 0) << "step " << i;
+    if (dof == SteeringDof::kJoint7) {
+      const Eigen::Isometry3d before = controller.CalcFlangePose(q);
+      const Eigen::Isometry3d after = controller.CalcFlangePose(out.q_target);
+      const Eigen::Isometry3d without_null =
+          controller.CalcFlangePose(out.q_target - out.null_space_step);
+      result.max_flange_step = std::max(result.max_flange_step,
+                                        (after.translation() - before.translation()).norm());
+      result.max_flange_turn = std::max(
+          result.max_flange_turn,
+          Eigen::AngleAxisd(after.linear() * before.linear().transpose()).angle());
+      // the needle (base point at the flange, axis z_F here) under the null-space step
+      const Eigen::Vector3d axis_after = after.linear().col(2), axis_without = without_null.linear().col(2);
+      result.max_null_flange_motion = std::max(
+          {result.max_null_flange_motion, (after.translation() - without_null.translation()).norm(),
+           kNeedleLength * (axis_after - axis_without).norm()});
+    }
     q = out.q_target;
     X_WE = out.X_WE_target;
     if (dof == SteeringDof::kJoint7) {
@@ -144,25 +167,32 @@ TEST(SteeringControllerTest, StaticLiverCartesianReachesTarget) {
               1e3 * r.final_error, 1e3 * r.model_error, r.steps);
 }
 
-// the iiwa in joint space reaches the target; its redundancy: the joint-limit step lies in the
-// Jacobian's null space (the objectives see it at most to the rank tolerance, 1e-3 of the
-// largest singular value), it brings the joints toward mid-range (against the same insertion
-// without it), and the commanded joints keep the margin
+// the iiwa in joint space reaches the target; its redundancy: the joint-limit step moves no
+// point of the needle (the arm's self-motion and the roll about the needle's axis, its
+// second-order motion corrected: measured by forward kinematics, not to first order), it brings
+// the joints toward mid-range (against the same insertion without it), and the commanded joints
+// keep the margin; the law moves the flange no faster than the Cartesian caps
 TEST(SteeringControllerTest, StaticLiverJointSpaceReachesTargetAndUsesTheNullSpace) {
   const LoopResult with = RunStaticInsertion(SteeringDof::kJoint7, 1.1, 120);
   const LoopResult without = RunStaticInsertion(SteeringDof::kJoint7, 1.1, 120, 0.0);
   EXPECT_GT(with.null_step_sum, 1e-3);
   EXPECT_EQ(without.null_step_sum, 0.0);
-  EXPECT_LT(with.null_leak, 1e-3);
   EXPECT_LT(with.mid_range_distance, 0.9 * without.mid_range_distance)
       << with.mid_range_distance << " vs " << without.mid_range_distance;
   EXPECT_GE(with.min_limit_distance, SteeringControlConfig().joint_limit_margin - 1e-12);
   EXPECT_TRUE(with.reached_end);
   EXPECT_LT(with.final_error, kFinalTolerance);
+  // the flange no faster than the Cartesian law's caps (3 mm, 0.1 rad a step here; first order:
+  // a step's curvature may add a few percent), and the self-motion leaves it in place
+  EXPECT_LT(with.max_flange_step, 1.05 * 0.003);
+  EXPECT_LT(with.max_flange_turn, 1.05 * 0.1);
+  EXPECT_LT(with.max_null_flange_motion, 1e-6);
   std::printf("joint7: final error %.4f mm (model %.4f mm) after %d steps; |q - q_mid| %.4f rad "
-              "(without the null-space step %.4f), leak %.2e\n",
+              "(without the null-space step %.4f), first-order leak %.2e; flange at most %.3f mm and "
+              "%.4f rad a step, the null-space step moves the needle at most %.2e m\n",
               1e3 * with.final_error, 1e3 * with.model_error, with.steps,
-              with.mid_range_distance, without.mid_range_distance, with.null_leak);
+              with.mid_range_distance, without.mid_range_distance, with.null_leak,
+              1e3 * with.max_flange_step, with.max_flange_turn, with.max_null_flange_motion);
 }
 
 TEST(SteeringControllerTest, BadRedundancySettingsAreRefusedWithTheirKey) {
