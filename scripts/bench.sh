@@ -7,7 +7,7 @@
 # --baseline DIR also the same benchmarks from another build and the ratio to them).
 #
 #   scripts/bench.sh [--reps N] [--filter REGEX] [--baseline BUILD_DIR] [--cpu C]
-#                    [--two-cores LIST|none] [--out DIR] [--no-build]
+#                    [--two-cores LIST|none] [--out DIR] [--no-build] [--readme]
 #
 #   --reps N          repetitions of each benchmark (default 5); aggregates: median (and mean,
 #                     stddev, cv) over the repetitions
@@ -21,6 +21,8 @@
 #                     critical path; "none" skips this pass
 #   --out DIR         output directory (default results/bench_<date>)
 #   --no-build        use the binaries as they are
+#   --readme          also write the goals table (the speed goals beside this run's figures)
+#                     into README.md, between its bench:goals markers
 # Environment: NSIM_BUILD_DIR (default build-bench/), NSIM_JOBS (build jobs, default 2).
 # The 30000-node liver (scaling) is generated into <build>/meshes on the first run (gmsh).
 # The machine should be quiet: the numbers are wall times.
@@ -34,6 +36,7 @@ cpu=1
 two_cores="0,1"
 out=""
 do_build=1
+readme=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --reps) reps="$2"; shift 2 ;;
@@ -43,7 +46,8 @@ while [ $# -gt 0 ]; do
     --two-cores) two_cores="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
     --no-build) do_build=0; shift ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    --readme) readme="$root/README.md"; shift ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     *) echo "bench.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -117,5 +121,5 @@ if [ "$two_cores" != none ]; then
 fi
 
 "$python" "$root/scripts/bench_report.py" --cpu "$cpu" --two-cores "$two_cores" \
-  --build "$build" ${baseline:+--baseline "$baseline"} "$out"
+  --build "$build" ${baseline:+--baseline "$baseline"} ${readme:+--readme "$readme"} "$out"
 echo "bench.sh: wrote $out/bench.json and $out/bench.md" >&2

@@ -72,6 +72,37 @@ def main():
         md = open(os.path.join(out, "bench.md")).read()
         check("Scaling" not in md, "no scaling section with one size")
 
+    with tempfile.TemporaryDirectory() as out:  # the goals table, and into a README's block
+        os.makedirs(os.path.join(out, "raw"))
+        entries = (bench("Solve/2660", [2.0, 2.0, 2.0]) + bench("LiverStep/10000", [40.0, 20.0, 60.0]) +
+                   bench("LiverStepRefactorEveryStep/2660", [50.0]))
+        seq = bench("DirectSceneSequence/Background/Rest/2660", [12.0, 12.0, 12.0])
+        seq[-1].update({"p50_ms": 4.0, "p99_ms": 9.0})
+        with open(os.path.join(out, "raw", "current__fem_bench.json"), "w") as f:
+            json.dump({"context": {}, "benchmarks": entries + seq}, f)
+        readme = os.path.join(out, "README.md")
+        with open(readme, "w") as f:
+            f.write("# x\nbefore\n<!-- bench:goals:begin -->\nold table\n<!-- bench:goals:end -->\nafter\n")
+        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                        "--two-cores", "none", "--readme", readme, out], check=True)
+        text = open(readme).read()
+        check("old table" not in text and text.startswith("# x\nbefore\n") and
+              text.endswith("<!-- bench:goals:end -->\nafter\n"), "only the block replaced")
+        lines = text.splitlines()
+        median = [l for l in lines if "DirectSceneSequence/Background/Rest/2660` p50" in l]
+        p99 = [l for l in lines if "DirectSceneSequence/Background/Rest/2660` p99" in l]
+        big = [l for l in lines if "`LiverStep/10000`" in l]
+        check(median and "| 4 ms | 2x | 12.5x | <= 5 ms | yes |" in median[0], f"median row {median}")
+        check(p99 and "| 9 ms | 4.5x |" in p99[0] and "| no |" in p99[0], f"p99 row {p99}")
+        check(big and "| 40 ms |" in big[0] and "| no |" in big[0], f"10000 row (the median) {big}")
+        md = open(os.path.join(out, "bench.md")).read()
+        check("## The speed goals" in md, "the goals in bench.md too")
+        with open(readme, "w") as f:
+            f.write("no markers\n")
+        r = subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                            "--two-cores", "none", "--readme", readme, out], capture_output=True)
+        check(r.returncode != 0 and b"bench:goals" in r.stderr, "a README without the block refused")
+
     for f in failures:
         print("FAILED:", f)
     print("bench_report_test:", "ok" if not failures else f"{len(failures)} failures")
