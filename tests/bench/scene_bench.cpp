@@ -41,13 +41,15 @@ struct Fixture {
   std::unique_ptr<PatientScene> scene;
   double s = 0.0;  // tip travel along the plan (m)
 
-  // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it
-  explicit Fixture(int nodes, int background = -1, int rest_compliance = -1) {
+  // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it; adopt_delay:
+  // 0 keeps the scenario's refactor_adopt_delay
+  explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
     if (background >= 0) scenario.scene.liver.background_refactor = background == 1;
     if (rest_compliance >= 0) scenario.scene.liver_rest_compliance = rest_compliance == 1;
+    if (adopt_delay > 0) scenario.scene.liver.refactor_adopt_delay = adopt_delay;
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
                              scenario.insertion.approach_distance);
@@ -108,8 +110,8 @@ BENCHMARK(BM_DirectSceneStepFree)->Arg(2660)->Unit(benchmark::kMillisecond)->Ite
 // paced: one step per time step of wall clock (sleeping until the next period, as realtime mode
 // does), so that the background refresh can use the time the steps leave
 void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
-                         bool paced = false) {
-  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0);
+                         bool paced = false, int adopt_delay = 0) {
+  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay);
   while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
          f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
@@ -165,6 +167,14 @@ void RegisterSequences() {
   benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660", [](benchmark::State& s) {
     DirectSceneSequence(s, true, true, true);
   })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  // the same with the factor adopted later: on a machine where a factorization takes longer
+  // than refactor_adopt_delay steps, the adopting step waits for the worker (waits_per_swap)
+  for (int delay : {6, 10}) {
+    const std::string name = "DirectSceneSequence/Paced/Rest/2660/AdoptDelay" + std::to_string(delay);
+    benchmark::RegisterBenchmark(name.c_str(), [delay](benchmark::State& s) {
+      DirectSceneSequence(s, true, true, true, delay);
+    })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  }
 }
 
 // the physics watchdog's check of one state (patient loop, every step): bounds, kinetic
