@@ -442,11 +442,6 @@ void ConstraintSolver::Assemble(const ConstraintSet& set) {
   RecomputeDelta(set);
 }
 
-void ApplyRowSoftness(const std::vector<ConstraintRow>& rows, Eigen::MatrixXd& W) {
-  for (int i = 0; i < static_cast<int>(rows.size()); ++i)
-    if (rows[i].softness > 0.0) W(i, i) *= 1.0 + rows[i].softness;
-}
-
 void ConstraintSolver::RecomputeDelta(const ConstraintSet& set) {
   const int m = set.num_rows();
   delta_.resize(m);

@@ -139,8 +139,13 @@ ConstraintSolveReport SolveConstraintLaws(const Eigen::MatrixXd& W, const Eigen:
                                           ConstraintWorkspace& workspace, Eigen::VectorXd& lambda);
 
 /// W_ii *= 1 + rows[i].softness for every soft row (the rows' own compliance, constraint_set.h);
-/// W is the bodies' compliance of those rows, rows.size() square.
-void ApplyRowSoftness(const std::vector<ConstraintRow>& rows, Eigen::MatrixXd& W);
+/// W is the bodies' compliance of those rows, rows.size() square. Row: ConstraintRow, or a
+/// copy of it with a softness member (ConstraintSnapshot's).
+template <typename Row>
+void ApplyRowSoftness(const std::vector<Row>& rows, Eigen::MatrixXd& W) {
+  for (int i = 0; i < static_cast<int>(rows.size()); ++i)
+    if (rows[i].softness > 0.0) W(i, i) *= 1.0 + rows[i].softness;
+}
 
 /// Solves the constraints of a step and applies the corrections. Keeps W, delta, lambda and
 /// the compliance cache between calls; reuse one object across steps.

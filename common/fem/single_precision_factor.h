@@ -21,19 +21,9 @@
 #include <Eigen/Core>
 #include <vector>
 
-namespace nsim {
+#include "common/fem/cholmod_factor.h"
 
-/// The arrays of a supernodal LL' factor, as CHOLMOD stores them (int indices), borrowed.
-struct SupernodalFactorView {
-  int n = 0;                       ///< order of A
-  int nsuper = 0;                  ///< number of supernodes
-  const int* super = nullptr;      ///< [nsuper + 1] first column of each supernode
-  const int* pi = nullptr;         ///< [nsuper + 1] start of each supernode's rows in s
-  const int* px = nullptr;         ///< [nsuper + 1] start of each supernode's values in x
-  const int* s = nullptr;          ///< row indices (the supernode's own columns first)
-  const double* x = nullptr;       ///< values, column-major per supernode (nsrow x nscol)
-  const int* perm = nullptr;       ///< [n] fill-reducing permutation: row k of P A P' is row perm[k] of A
-};
+namespace nsim {
 
 class SinglePrecisionFactor {
  public:

@@ -66,13 +66,13 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
     }
     if (group.law == ConstraintLaw::kUnilateral) row_unilateral[group.first_row] = 1;
   }
-  set_rows_ = set.rows();  // their softness
   for (int i = 0; i < set.num_rows(); ++i) {
     const ConstraintRow& r = set.row(i);
     Row row;
     row.first_term = static_cast<int>(terms_.size());
     row.num_terms = r.num_terms;
     row.target = r.target;
+    row.softness = r.softness;
     for (int t = r.first_term; t < r.first_term + r.num_terms; ++t) {
       const ConstraintTerm& term = set.term(t);
       const ConstraintPoint& point = set.point(term.point);
@@ -188,12 +188,10 @@ void ConstraintSnapshot::HoldFrictionForces(const Eigen::VectorXd& lambda) {
   // and the rows leave the problem (the groups renumbered; only axial groups name another)
   std::vector<int> new_index(rows_.size(), -1);
   std::vector<Row> rows;
-  std::vector<ConstraintRow> set_rows;
   for (size_t i = 0; i < rows_.size(); ++i) {
     if (held_row[i]) continue;
     new_index[i] = static_cast<int>(rows.size());
     rows.push_back(rows_[i]);
-    set_rows.push_back(set_rows_[i]);
   }
   std::vector<ConstraintGroup> groups;
   bool all_bilateral = true;
@@ -205,7 +203,6 @@ void ConstraintSnapshot::HoldFrictionForces(const Eigen::VectorXd& lambda) {
     groups.push_back(g);
   }
   rows_ = std::move(rows);
-  set_rows_ = std::move(set_rows);
   groups_ = std::move(groups);
   if (all_bilateral) config_.method = ConstraintMethod::kDirect;
 }
@@ -246,7 +243,7 @@ ConstraintSolveReport ConstraintSnapshot::Solve(
   }
   ws.HG.noalias() = ws.H * G_;
   ws.W.noalias() = ws.HG * ws.H.transpose();
-  ApplyRowSoftness(set_rows_, ws.W);
+  ApplyRowSoftness(rows_, ws.W);
   const ConstraintSolveReport report =
       SolveConstraintLaws(ws.W, ws.delta, groups_, config_, ws.solver, ws.lambda);
 

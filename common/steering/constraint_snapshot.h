@@ -140,12 +140,12 @@ class ConstraintSnapshot {
     int first_term = 0, num_terms = 0;
     double target = 0.0;
     bool turns = false;  // directions turn with the needle
+    double softness = 0.0;  // ConstraintRow::softness
   };
 
   std::vector<Term> terms_;
   std::vector<Row> rows_;
   std::vector<ConstraintGroup> groups_;  // the set's laws
-  std::vector<ConstraintRow> set_rows_;  // the set's rows (their softness)
   ConstraintSolverConfig config_;        // the captured solver's, direct or the active set
   int num_body_points_ = 0;
   std::vector<Eigen::Vector3d> free_;  // free positions of the body points (m)

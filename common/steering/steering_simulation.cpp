@@ -94,6 +94,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   coupling.tissues = {liver};
   coupling.bevel = config.bevel;
   coupling_ = std::make_unique<NeedleTissueCoupling>(coupling, std::vector<const TetMesh*>{&mesh_});
+  snapshot_.set_hold_friction(config_.jacobian_friction_held);
   coupling_state_ = coupling_->MakeState();
   if (config.needle_kind == ModelNeedleKind::kFlexible) {
     beam_model_ = std::make_unique<BeamNeedleModel>(CalcModelBeamConfig(config));
@@ -345,7 +346,6 @@ SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& 
 
   constraint_solver_.Assemble(set_);
   report.solve = constraint_solver_.SolveMultipliers(set_);
-  snapshot_.set_hold_friction(config_.jacobian_friction_held);
   std::vector<char> moves(set_.num_points(), 0);
   for (int p = first_needle_point; p < set_.num_points(); ++p) moves[p] = set_.point(p).body < 0;
   if (beam_body_) {

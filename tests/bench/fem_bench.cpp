@@ -30,6 +30,7 @@
 #include <string>
 
 #include "common/fem/cholmod_factor.h"
+#include "common/fem/single_precision_factor.h"
 #include "common/fem/fem_solver.h"
 #include "common/mesh/gmsh_reader.h"
 #include "tests/bench/step_times.h"
