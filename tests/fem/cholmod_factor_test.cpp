@@ -2,8 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <Eigen/Dense>
+#include <filesystem>
 #include <random>
+#include <thread>
 
 namespace nsim {
 namespace {
@@ -48,6 +52,41 @@ TEST(CholmodFactorTest, SolvesSingleAndMultipleRightHandSides) {
   EXPECT_LT((x - X.col(3)).norm(), kSolveTol * x.norm());
   const Eigen::MatrixXd X_ref = Eigen::MatrixXd(A).llt().solve(B);
   EXPECT_LT((X - X_ref).norm(), 1e-10 * X_ref.norm());
+}
+
+int CountThreadsOfThisProcess() {
+  int count = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator("/proc/self/task"))
+    ++count;
+  return count;
+}
+
+// CHOLMOD's factorization asks OpenMP for 4 threads whatever OMP_NUM_THREADS says; the factor
+// keeps it on the calling thread (cholmod_factor.cpp, SerialOpenMp). A thread that opens an
+// OpenMP team keeps its pool's threads alive afterwards, so a team of more than one would show
+// as new threads of the process. Run on a fresh thread, so no pool exists before.
+TEST(CholmodFactorTest, FactorizesOnTheCallingThreadAlone) {
+  const Eigen::SparseMatrix<double> A = RandomSpd(3000, 0.5, 5);  // fill-in: supernodes > 1024
+  int before = 0, after = 0, levels_before = 0, levels_after = 0;
+  double residual = 1.0;
+  std::thread caller([&] {
+    levels_before = omp_get_max_active_levels();
+    before = CountThreadsOfThisProcess();
+    CholmodFactor factor;
+    factor.Analyze(A);
+    if (!factor.Factorize(A)) return;
+    after = CountThreadsOfThisProcess();
+    levels_after = omp_get_max_active_levels();
+    const Eigen::VectorXd b = Eigen::VectorXd::Ones(A.rows());
+    Eigen::VectorXd x(A.rows());
+    factor.Solve(b, x);
+    residual = (A * x - b).norm() / b.norm();
+  });
+  caller.join();
+  ASSERT_GT(before, 0);
+  EXPECT_EQ(after, before) << "CHOLMOD's factorization started OpenMP threads";
+  EXPECT_EQ(levels_after, levels_before) << "the thread's max-active-levels was not restored";
+  EXPECT_LT(residual, kSolveTol);
 }
 
 TEST(CholmodFactorTest, RefactorizesNewValuesAndDetectsIndefinite) {
