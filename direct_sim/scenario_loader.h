@@ -69,8 +69,12 @@ struct DirectScenario {
   std::string dds_partition = "nsim";
 
   /// The patient loop's config (controller = false: insert along the path without targets).
+  /// A lockstep run adopts the liver's factor refreshes on schedule (deterministic), whatever
+  /// patient.liver.refactor_adoption says: that key chooses for realtime runs.
   PatientLoopConfig LoopConfig(bool controller) const {
-    return {scene, robot, insertion, safety, controller, watchdog};
+    PatientSceneConfig run_scene = scene;
+    if (run.mode == RunMode::kLockstep) run_scene.liver.refactor_adoption = FactorAdoption::kScheduled;
+    return {run_scene, robot, insertion, safety, controller, watchdog};
   }
 };
 

@@ -19,6 +19,20 @@ enum class FemLinearSolver {
 /// Parses "direct" / "pcg_cached_factor"; throws InputError naming `key` otherwise.
 FemLinearSolver ParseFemLinearSolver(const std::string& text, const std::string& key);
 
+/// When a background factorization (FemConfig::background_refactor) is adopted.
+enum class FactorAdoption {
+  /// At the start of step k + refactor_adopt_delay for a request of step k, waiting for the
+  /// worker there if it is not done: deterministic (lockstep, batches, tests).
+  kScheduled,
+  /// At the start of the first step from k + refactor_adopt_delay on at which the worker is
+  /// done; a step never waits for it. For realtime runs: which factor preconditions a step then
+  /// depends on the worker's timing, so runs differ at the PCG tolerance (every solve is still
+  /// iterated to cg_relative_tolerance); a late factor only costs PCG iterations, and a PCG that
+  /// reaches cg_max_iterations falls back to a factor of its own step (the job in flight is
+  /// dropped).
+  kWhenReady,
+};
+
 /// Material, damping, time stepping and solver settings of one FEM body.
 struct FemConfig {
   double young_modulus = 5500.0;  ///< E (Pa); liver 5.5 kPa (thesis §5.1)
@@ -72,6 +86,11 @@ struct FemConfig {
   /// takes ~30-60 ms, i.e. 2-3 steps of 20 ms; the older factor costs ~0.2 PCG iterations a
   /// step more in the patient scene (tests/bench/scene_bench.cpp, DirectSceneSequence).
   int refactor_adopt_delay = 3;
+  /// Scheduled (deterministic) or as soon as the worker is done (realtime); see FactorAdoption.
+  /// In the scheduled mode an adoption waits whenever a factorization outlasts
+  /// refactor_adopt_delay steps: on a slow or loaded machine the refreshes of a deforming liver
+  /// then follow one another every delay + 1 steps and each adoption stalls its step.
+  FactorAdoption refactor_adoption = FactorAdoption::kScheduled;
   /// Threads of the element passes (the elastic forces and rotations of each step, and the
   /// matrix-free products of the conjugate gradient), 1-8: the tets are split into this many
   /// fixed, contiguous parts, part 0 on the calling thread and the others on helper threads

@@ -59,7 +59,8 @@ struct FemSolver::Impl {
   // background factorization (FemConfig::background_refactor). Deterministic schedule: the
   // request is made at step k from A_k, the result adopted at the start of step adopt_step =
   // k + refactor_adopt_delay, whatever the worker's timing (the main thread waits there if
-  // needed). Ownership: background_matrix and spare belong to the worker from the request
+  // needed; FactorAdoption::kWhenReady: at the first step from adopt_step on at which the
+  // worker is done, never waiting). Ownership: background_matrix and spare belong to the worker from the request
   // until job_done is seen under the mutex; background_rotations only to this thread.
   std::unique_ptr<CholmodFactor> spare;
   std::unique_ptr<SinglePrecisionFactor> spare_single;  // its copy, made by the worker
@@ -344,12 +345,16 @@ struct FemSolver::Impl {
     return late;
   }
 
-  // at the start of step adopt_step: adopt the background factorization requested
-  // refactor_adopt_delay steps ago, waiting for it if needed; returns whether one was adopted
-  bool AdoptBackgroundFactor(bool& waited) {
+  // adopts the background factorization requested refactor_adopt_delay steps ago: at the start
+  // of step adopt_step, waiting for it if needed (FactorAdoption::kScheduled), or at the first
+  // step from then on at which the worker is done (kWhenReady, never waiting); returns whether
+  // one was adopted, and `lag`, the steps since its request
+  bool AdoptBackgroundFactor(bool& waited, int& lag) {
     waited = false;
-    if (adopt_step < 0 || step_index != adopt_step) return false;
+    if (adopt_step < 0 || step_index < adopt_step) return false;
     std::unique_lock<std::mutex> lock(mutex);
+    if (config.refactor_adoption == FactorAdoption::kWhenReady && !job_done) return false;
+    lag = static_cast<int>(step_index - adopt_step) + config.refactor_adopt_delay;
     waited = WaitForJob(lock);
     if (!job_ok) return false;  // a failed factorization is dropped, the old factor stays
     std::swap(active, spare);
@@ -525,7 +530,7 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     const double b_norm = s.b.norm();
     stats_.relative_residual = b_norm > 0 ? (s.b - s.ap).norm() / b_norm : 0.0;
   } else {
-    stats_.factor_swapped = s.AdoptBackgroundFactor(stats_.waited_for_worker);
+    stats_.factor_swapped = s.AdoptBackgroundFactor(stats_.waited_for_worker, stats_.adoption_lag);
     s.UpdateNodalRotations();
     stats_.cg_iterations = s.Pcg(s.b, s.dv, stats_.relative_residual);
     if (stats_.relative_residual > model.get_config().cg_relative_tolerance) {

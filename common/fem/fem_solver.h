@@ -67,12 +67,14 @@
 //
 // Threading: a FemSolver belongs to one thread (plus its own background worker when
 // FemConfig::background_refactor is set on the PCG path, at the lowest priority, nice 19, so
-// that on a shared core the steps go first). The worker only
-// factorizes (and makes the factor's single-precision copy for the preconditioner); what it factorizes (A of the step that asked) and when its factor is adopted
-// (refactor_adopt_delay steps later, at the start of BeginStep, waiting if necessary) follow
-// from the calls alone, so results do not depend on thread timing (given a BLAS that is
-// deterministic for a fixed thread count). BLAS threads: set OPENBLAS_NUM_THREADS=1 for
-// single-core timing.
+// that on a shared core the steps go first). The worker only factorizes (and makes the factor's
+// single-precision copy for the preconditioner). What it factorizes (A of the step that asked)
+// and, with FactorAdoption::kScheduled, when its factor is adopted (refactor_adopt_delay steps
+// later, at the start of BeginStep, waiting if necessary) follow from the calls alone, so
+// results do not depend on thread timing (given a BLAS that is deterministic for a fixed thread
+// count). With kWhenReady (realtime) the adoption is the first BeginStep from then on that
+// finds the worker done: no step waits, and runs differ at the PCG tolerance. BLAS threads: set
+// OPENBLAS_NUM_THREADS=1 for single-core timing.
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
@@ -108,6 +110,9 @@ struct FemStepStats {
   /// The adoption at this step had to wait for the worker (the only field that depends on
   /// timing; nothing else does).
   bool waited_for_worker = false;
+  /// Steps from the request to the adoption of the factor adopted at this step (0: none);
+  /// refactor_adopt_delay when scheduled, at least that when ready (timing-dependent).
+  int adoption_lag = 0;
   bool fell_back_to_direct = false;  ///< PCG hit cg_max_iterations; solved with a fresh factor
   int inverted_tets = 0;          ///< tets with det F <= kPolarSvdThreshold at the step's x
 };

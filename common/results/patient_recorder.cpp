@@ -44,7 +44,8 @@ PatientRecorder::PatientRecorder(const std::string& out_dir) : out_dir_(out_dir)
       "target_z,tip_x,tip_y,tip_z,robot_x,robot_y,robot_z,robot_qw,robot_qx,robot_qy,"
       "robot_qz,holding");
   steps_csv_ = Open(out_dir_ + "/step_times.csv");
-  steps_csv_->WriteLine("step,t,step_ms,holding");
+  steps_csv_->WriteLine("step,t,step_ms,holding,liver_pcg_iterations,liver_factor_adopted,"
+                        "liver_adoption_waited");
 }
 
 void PatientRecorder::AddFrame(const PatientLoop& loop) {
@@ -85,7 +86,17 @@ void PatientRecorder::AddStep(const PatientLoop& loop) {
   min_joint_margin_ = std::min(min_joint_margin_, loop.robot().joint_limit_margin());
   std::ostringstream row;
   row << std::setprecision(17);
-  row << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ',' << (s.holding ? 1 : 0);
+  const FemStepStats& liver = s.scene.liver_stats;
+  liver_pcg_iterations_ += liver.cg_iterations;
+  liver_refactorized_ += liver.refactorized;
+  if (liver.factor_swapped) {
+    ++liver_adopted_;
+    liver_adoption_lag_ += liver.adoption_lag;
+  }
+  liver_waits_ += liver.waited_for_worker;
+  row << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ',' << (s.holding ? 1 : 0)
+      << ',' << liver.cg_iterations << ',' << (liver.factor_swapped ? 1 : 0) << ','
+      << (liver.waited_for_worker ? 1 : 0);
   steps_csv_->WriteLine(row.str());
 }
 
@@ -109,6 +120,20 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   j["simulated_time_s"] = loop.time();
   j["wall_time_s"] = info.wall_time;
   j["step_time_ms"] = StatsMs(step_ms_);
+  // the patient liver's solver: PCG iterations a step, the factor refreshes adopted from the
+  // background worker (how many steps after their request, how many made their step wait) and
+  // the factorizations done inside a step
+  const double steps = std::max<double>(1.0, static_cast<double>(step_ms_.size()));
+  j["liver_solver"] = {
+      {"refactor_adoption",
+       sc.liver.refactor_adoption == FactorAdoption::kWhenReady ? "when_ready" : "scheduled"},
+      {"pcg_iterations_per_step", liver_pcg_iterations_ / steps},
+      {"factors_adopted", liver_adopted_},
+      {"adoptions_that_waited", liver_waits_},
+      {"mean_adoption_lag_steps",
+       liver_adopted_ > 0 ? json(static_cast<double>(liver_adoption_lag_) / liver_adopted_)
+                          : json(nullptr)},
+      {"in_step_factorizations", liver_refactorized_}};
   const double rate = info.wall_time > 0 ? loop.steps() / info.wall_time : 0.0;
   const double mean_ms = Summarize(step_ms_).mean;
   j["rate_hz"] = rate;

@@ -94,6 +94,9 @@ class PatientRecorder {
   Eigen::Vector3d last_e_p_ = Eigen::Vector3d::Zero();
   int last_phase_ = 0;
   uint64_t hold_steps_ = 0, rib_contact_steps_ = 0, unconverged_solves_ = 0, frames_ = 0;
+  // the liver's solver over the steps (FemStepStats)
+  uint64_t liver_pcg_iterations_ = 0, liver_refactorized_ = 0, liver_adopted_ = 0;
+  uint64_t liver_adoption_lag_ = 0, liver_waits_ = 0;
   uint64_t targets_applied_ = 0;  // targets the robot carried out (a held one counted once)
   uint64_t last_applied_ = SensorFrame::kNoTarget;
   std::optional<double> puncture_time_[2];

@@ -15,6 +15,8 @@
 // breathing steps from rest (12 s, 3 cycles; 200 for the direct path), wall clock, one sequence per
 // repetition: counters p50_ms, p90_ms, p99_ms, max_ms (tests/bench/step_times.h), the steps
 // that adopt a background factor (swap_step_ms) or hand one to the worker (request_step_ms).
+// ...WhenReady: each refresh adopted at the first step that finds it done (FactorAdoption::
+// kWhenReady, realtime runs), never waiting; adoption_lag = steps from request to adoption.
 // ...ElementThreads2: the element passes split over two threads (FemConfig::element_threads);
 // the 10000-node sequences are 100 steps.
 // The worker needs a second core to be off the critical path: on one core (taskset -c 1) it
@@ -83,7 +85,8 @@ struct Fixture {
   std::unique_ptr<FemState> state;
 
   Fixture(int nodes, FemLinearSolver kind, bool background, int adopt_delay = 3,
-          int warm_up_steps = 50, int element_threads = 1) {
+          int warm_up_steps = 50, int element_threads = 1,
+          FactorAdoption adoption = FactorAdoption::kScheduled) {
     const LiverScene scene = MakeScene(MeshPath(nodes));
     FemConfig config;  // liver: E 5.5 kPa, nu 0.45, rho 1060, h 20 ms
     config.rayleigh_mass = 0.1;
@@ -92,6 +95,7 @@ struct Fixture {
     config.background_refactor = background;
     config.refactor_adopt_delay = adopt_delay;
     config.element_threads = element_threads;
+    config.refactor_adoption = adoption;
     model = std::make_unique<FemModel>(scene.mesh, config, scene.boundary);
     solver = std::make_unique<FemSolver>(*model);
     state = std::make_unique<FemState>(*model);
@@ -121,19 +125,21 @@ void RunSteps(benchmark::State& bench, int nodes, FemLinearSolver kind, bool bac
 
 // the step-time distribution over a long breathing sequence (Iterations = steps)
 void RunSequence(benchmark::State& bench, int nodes, FemLinearSolver kind, bool background,
-                 int adopt_delay = 3, int element_threads = 1) {
+                 int adopt_delay = 3, int element_threads = 1,
+                 FactorAdoption adoption = FactorAdoption::kScheduled) {
   // from rest: the first second needs the refreshes (~5); after it the warm-started PCG needs
   // ~2.5 iterations a step and the breathing alone asks for none
-  Fixture fixture(nodes, kind, background, adopt_delay, 0, element_threads);
+  Fixture fixture(nodes, kind, background, adopt_delay, 0, element_threads, adoption);
   StepTimes times(static_cast<size_t>(bench.max_iterations));
   std::vector<double> swap_ms, request_ms;
-  double iterations = 0, refactorizations = 0, swaps = 0, waits = 0, steps = 0;
+  double iterations = 0, refactorizations = 0, swaps = 0, waits = 0, steps = 0, lags = 0;
   for (auto _ : bench) {
     const FemStepStats stats = times.Time([&] { return fixture.Step(); });
     iterations += stats.cg_iterations;
     refactorizations += stats.refactorized;
     swaps += stats.factor_swapped;
     waits += stats.waited_for_worker;
+    lags += stats.adoption_lag;
     if (stats.factor_swapped) swap_ms.push_back(times.last());
     if (stats.refresh_requested) request_ms.push_back(times.last());
     steps += 1;
@@ -144,6 +150,7 @@ void RunSequence(benchmark::State& bench, int nodes, FemLinearSolver kind, bool 
   bench.counters["refactor_per_step"] = refactorizations / steps;
   bench.counters["bg_swaps_per_step"] = swaps / steps;
   bench.counters["waits_per_swap"] = swaps > 0 ? waits / swaps : 0.0;
+  bench.counters["adoption_lag"] = swaps > 0 ? lags / swaps : 0.0;  // steps, request to adoption
   bench.counters["swap_step_ms"] = StepTimes::Percentile(swap_ms, 0.5);
   bench.counters["request_step_ms"] = StepTimes::Percentile(request_ms, 0.5);
 }
@@ -240,6 +247,12 @@ int main(int argc, char** argv) {
             })
             ->Unit(benchmark::kMillisecond)->Iterations(600)->UseRealTime();
       }
+      benchmark::RegisterBenchmark(("LiverStepSequence/BackgroundRefreshWhenReady/" + n).c_str(),
+                                   [nodes](benchmark::State& s) {
+                                     RunSequence(s, nodes, FemLinearSolver::kPcgCachedFactor, true,
+                                                 3, 1, FactorAdoption::kWhenReady);
+                                   })
+          ->Unit(benchmark::kMillisecond)->Iterations(600)->UseRealTime();
       benchmark::RegisterBenchmark(("LiverStepSequence/BackgroundRefreshElementThreads2/" + n).c_str(),
                                    [nodes](benchmark::State& s) {
                                      RunSequence(s, nodes, FemLinearSolver::kPcgCachedFactor, true, 3, 2);
@@ -263,6 +276,12 @@ int main(int argc, char** argv) {
             })
             ->Unit(benchmark::kMillisecond)->Iterations(100)->UseRealTime();
       }
+      benchmark::RegisterBenchmark(("LiverStepSequence/BackgroundRefreshWhenReady/" + n).c_str(),
+                                   [nodes](benchmark::State& s) {
+                                     RunSequence(s, nodes, FemLinearSolver::kPcgCachedFactor, true,
+                                                 3, 1, FactorAdoption::kWhenReady);
+                                   })
+          ->Unit(benchmark::kMillisecond)->Iterations(100)->UseRealTime();
     }
     if (nodes <= 2660) {
       benchmark::RegisterBenchmark(("LiverStepRefactorEveryStep/" + n).c_str(),

@@ -42,14 +42,16 @@ struct Fixture {
   double s = 0.0;  // tip travel along the plan (m)
 
   // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it; adopt_delay:
-  // 0 keeps the scenario's refactor_adopt_delay
-  explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0) {
+  // 0 keeps the scenario's refactor_adopt_delay; the refreshes are adopted as `adoption` says
+  explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0,
+                   FactorAdoption adoption = FactorAdoption::kScheduled) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
     if (background >= 0) scenario.scene.liver.background_refactor = background == 1;
     if (rest_compliance >= 0) scenario.scene.liver_rest_compliance = rest_compliance == 1;
     if (adopt_delay > 0) scenario.scene.liver.refactor_adopt_delay = adopt_delay;
+    scenario.scene.liver.refactor_adoption = adoption;
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
                              scenario.insertion.approach_distance);
@@ -110,14 +112,15 @@ BENCHMARK(BM_DirectSceneStepFree)->Arg(2660)->Unit(benchmark::kMillisecond)->Ite
 // paced: one step per time step of wall clock (sleeping until the next period, as realtime mode
 // does), so that the background refresh can use the time the steps leave
 void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
-                         bool paced = false, int adopt_delay = 0) {
-  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay);
+                         bool paced = false, int adopt_delay = 0,
+                         FactorAdoption adoption = FactorAdoption::kScheduled) {
+  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption);
   while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
          f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
   StepTimes times(static_cast<size_t>(state.max_iterations));
   std::vector<double> swap_ms, request_ms;
-  double swaps = 0, waits = 0, refactorizations = 0, cg = 0, steps = 0, rows = 0;
+  double swaps = 0, waits = 0, refactorizations = 0, cg = 0, steps = 0, rows = 0, lags = 0;
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(f.scenario.scene.time_step));
   auto next = std::chrono::steady_clock::now();
@@ -133,6 +136,7 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
     const FemStepStats& liver = report.liver_stats;
     swaps += liver.factor_swapped;
     waits += liver.waited_for_worker;
+    lags += liver.adoption_lag;
     refactorizations += liver.refactorized;
     cg += liver.cg_iterations;
     rows += report.num_rows;
@@ -144,6 +148,7 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
   state.counters["liver_refactor_per_step"] = refactorizations / steps;
   state.counters["bg_swaps_per_step"] = swaps / steps;
   state.counters["waits_per_swap"] = swaps > 0 ? waits / swaps : 0.0;
+  state.counters["adoption_lag"] = swaps > 0 ? lags / swaps : 0.0;  // steps, request to adoption
   state.counters["swap_step_ms"] = StepTimes::Percentile(swap_ms, 0.5);
   state.counters["request_step_ms"] = StepTimes::Percentile(request_ms, 0.5);
   state.counters["cg_iterations"] = cg / steps;
@@ -175,6 +180,11 @@ void RegisterSequences() {
       DirectSceneSequence(s, true, true, true, delay);
     })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
   }
+  // refactor_adoption: when_ready (realtime): each refresh adopted at the first step that finds
+  // it done, no step waiting for the worker
+  benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady", [](benchmark::State& s) {
+    DirectSceneSequence(s, true, true, true, 0, FactorAdoption::kWhenReady);
+  })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
 }
 
 // the physics watchdog's check of one state (patient loop, every step): bounds, kinetic

@@ -222,6 +222,54 @@ TEST(FemBackgroundRefreshTest, FallbackDropsTheJobInFlightDeterministically) {
   EXPECT_EQ(a.swaps + dropped + (in_flight_until >= 0 ? 1 : 0), a.requests);
 }
 
+// FactorAdoption::kWhenReady (realtime): a step never waits for the worker. A worker done in
+// time gives exactly the scheduled run; a late one only delays the adoption (more PCG
+// iterations, each solve still converged), and one that never finishes is never waited for.
+TEST(FemBackgroundRefreshTest, WhenReadyNeverWaitsAndAgreesWithTheScheduledRun) {
+  const FemConfig scheduled_config = LiverConfig();
+  FemConfig ready_config = LiverConfig();
+  ready_config.refactor_adoption = FactorAdoption::kWhenReady;
+  LiverRun scheduled(scheduled_config), early(ready_config), late(ready_config), never(ready_config);
+  late.solver->SetWorkerDelayForTesting(milliseconds(200));  // usually late by several steps
+  never.solver->HoldWorkerForTesting(true);  // starts a job only when waited for: never
+  std::vector<int> late_lags;
+  double max_late = 0.0, max_never = 0.0;
+  bool early_identical = true;
+  for (int step = 0; step < kSteps; ++step) {
+    scheduled.Step(step);
+    const FemStepStats e = early.Step(step);
+    early.solver->WaitForBackgroundFactorization();  // done before the next step
+    const FemStepStats l = late.Step(step);
+    never.Step(step);
+    if (e.factor_swapped) EXPECT_EQ(e.adoption_lag, ready_config.refactor_adopt_delay) << step;
+    if (l.factor_swapped) late_lags.push_back(l.adoption_lag);
+    early_identical = early_identical && Identical(scheduled, early);
+    max_late = std::max(max_late, (late.state->x - scheduled.state->x).cwiseAbs().maxCoeff());
+    max_never = std::max(max_never, (never.state->x - scheduled.state->x).cwiseAbs().maxCoeff());
+  }
+  const double motion = scheduled.Displacement();
+  std::printf("when ready, %d steps: early worker identical to the scheduled run: %s; late worker "
+              "%d adoptions (lags", kSteps, early_identical ? "yes" : "no", late.swaps);
+  for (int lag : late_lags) std::printf(" %d", lag);
+  std::printf("), max position difference %.2e m; never-done worker %d requests, %.2e m (motion "
+              "%.2f mm)\n", max_late, never.requests, max_never, 1e3 * motion);
+  EXPECT_TRUE(early_identical);
+  EXPECT_EQ(early.swaps, scheduled.swaps);
+  // no step waited, whatever the worker did
+  EXPECT_EQ(early.waits + late.waits + never.waits, 0);
+  EXPECT_GT(scheduled.swaps, 0);
+  ASSERT_GT(late.swaps, 0);
+  for (int lag : late_lags) EXPECT_GE(lag, ready_config.refactor_adopt_delay);
+  EXPECT_EQ(never.swaps, 0);
+  EXPECT_EQ(never.requests, 1);  // the one job stays in flight
+  EXPECT_EQ(late.in_step_factorizations + never.in_step_factorizations, 0);
+  // every solve converged (LiverRun::Step): within the tolerance times the motion, whichever
+  // factor preconditioned each step
+  const double tolerance = scheduled_config.cg_relative_tolerance;
+  EXPECT_LT(max_late, tolerance * motion);
+  EXPECT_LT(max_never, tolerance * motion);
+}
+
 // ---- element passes on several threads (FemConfig::element_threads) ----
 
 // every part runs once per Run, part 0 on the calling thread, whatever the number of parts

@@ -99,6 +99,27 @@ TEST(ScenarioLoaderTest, ConstraintComplianceChoices) {
           .scene.liver_rest_compliance);
 }
 
+// patient.liver.refactor_adoption chooses for realtime runs; a lockstep run's patient loop
+// always adopts on schedule (deterministic), whatever the file says
+TEST(ScenarioLoaderTest, RefactorAdoptionIsScheduledInLockstep) {
+  const auto load = [](const std::string& text) {
+    return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
+                               SourcePath("configs/scenarios"));
+  };
+  const DirectScenario by_default = load(DefaultText());
+  EXPECT_EQ(by_default.scene.liver.refactor_adoption, FactorAdoption::kScheduled);
+  DirectScenario ready =
+      load(Edited("refactor_adoption: scheduled", "refactor_adoption: when_ready"));
+  EXPECT_EQ(ready.scene.liver.refactor_adoption, FactorAdoption::kWhenReady);
+  ready.run.mode = RunMode::kRealtime;
+  EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kWhenReady);
+  ready.run.mode = RunMode::kLockstep;
+  EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kScheduled);
+  EXPECT_NE(LoadError(Edited("refactor_adoption: scheduled", "refactor_adoption: soon"))
+                .find("refactor_adoption"),
+            std::string::npos);
+}
+
 TEST(ScenarioLoaderTest, TyposAreUnknownKeys) {
   const std::string typo = LoadError(Edited("young_modulus: 5500", "youngs_modulus: 5500"));
   EXPECT_EQ(typo.rfind("scenario.yaml: patient.liver.youngs_modulus: unknown key (known keys: ", 0),
