@@ -45,7 +45,10 @@ fs::path WriteScenario(const fs::path& dir,
 
 TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
   const fs::path dir = TempDir("direct_run");
-  const fs::path scenario = WriteScenario(dir, {{"speed: 0.01", "speed: 0.02"}});
+  // the file asks for refreshes adopted when ready; a lockstep run adopts them on schedule
+  const fs::path scenario = WriteScenario(
+      dir, {{"speed: 0.01", "speed: 0.02"},
+            {"refactor_adoption: scheduled", "refactor_adoption: when_ready"}});
   const std::string partition = "direct_run_" + std::to_string(getpid());
   // lockstep without a controller: nothing to wait for, runs as fast as it can
   ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",
@@ -80,6 +83,32 @@ TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
   int lines = 0;
   while (std::getline(csv, line)) ++lines;
   EXPECT_EQ(lines, 102);
+  // the liver's solver: the summary's counts are those of step_times.csv's columns
+  const json& liver = s["liver_solver"];
+  EXPECT_EQ(liver["refactor_adoption"], "scheduled");
+  EXPECT_EQ(liver["in_step_factorizations"], 0);
+  std::ifstream steps(dir / "out/step_times.csv");
+  std::getline(steps, line);
+  EXPECT_EQ(line, "step,t,step_ms,holding,liver_pcg_iterations,liver_factor_adopted,"
+                  "liver_adoption_waited");
+  double iterations = 0;
+  int rows = 0, adopted = 0, waited = 0;
+  while (std::getline(steps, line)) {
+    std::stringstream row(line);
+    std::vector<std::string> cells;
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    ASSERT_EQ(cells.size(), 7u) << line;
+    iterations += std::stod(cells[4]);
+    adopted += std::stoi(cells[5]);
+    waited += std::stoi(cells[6]);
+    ++rows;
+  }
+  EXPECT_EQ(rows, 100);
+  EXPECT_GT(iterations, 0.0);
+  EXPECT_NEAR(liver["pcg_iterations_per_step"].get<double>(), iterations / rows, 1e-12);
+  EXPECT_EQ(liver["factors_adopted"], adopted);
+  EXPECT_EQ(liver["adoptions_that_waited"], waited);
+  if (adopted > 0) EXPECT_EQ(liver["mean_adoption_lag_steps"], 3.0);  // scheduled: the delay
 }
 
 TEST(DirectRun, BadScenarioExitsWithTwoAndNamesTheKey) {
