@@ -2,8 +2,9 @@
 // One thread for the numerical libraries unless the user chose otherwise.
 //
 // CHOLMOD (Debian's SuiteSparse 5) runs parts of its supernodal factorization with
-// `omp parallel num_threads(4)`, whatever OMP_NUM_THREADS says, and OpenBLAS starts one thread
-// per core. The two simulation processes already share the cores, so these threads only wait
+// `omp parallel num_threads(4)`, whatever OMP_NUM_THREADS says (CholmodFactor now also keeps
+// them on its calling thread itself, common/fem/cholmod_factor.cpp), and OpenBLAS starts one
+// thread per core. The two simulation processes already share the cores, so these threads only wait
 // for each other: measured on 2 cores, a factor refresh of the 2660-node liver took 135-150 ms
 // inside direct_sim instead of 55-67 ms with one thread, and a closed-loop run spent 33 s of a
 // 40 s run in the kernel. The libraries read their settings from the environment when they are

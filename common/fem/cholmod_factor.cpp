@@ -59,7 +59,9 @@ cholmod_sparse View(const Eigen::SparseMatrix<double>& A) {
 // OMP_NUM_THREADS does not override. On a two-core machine that is four threads meeting at a
 // barrier per supernode: measured on the 2660-node liver, a factorization took 241 ms of wall
 // clock for 154 ms of CPU (futex wake-ups, ~16 000 context switches a second), and its
-// threads took the core a step runs on. The calling thread's max-active-levels ICV set to 0
+// threads took the core a step runs on. The simulators and scripts also set OMP_THREAD_LIMIT=1
+// (common/core/library_threads.h); this guard holds without that environment (benchmarks run
+// by hand, tests, other programs linking the library). The calling thread's max-active-levels ICV set to 0
 // makes every region it opens run on itself alone (OpenMP 5.1, 2.6.1); the loops only clear
 // and scatter entries, so the factor is the same to the bit. Restored on return.
 class SerialOpenMp {
