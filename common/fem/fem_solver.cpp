@@ -60,8 +60,9 @@ struct FemSolver::Impl {
   // request is made at step k from A_k, the result adopted at the start of step adopt_step =
   // k + refactor_adopt_delay, whatever the worker's timing (the main thread waits there if
   // needed; FactorAdoption::kWhenReady: at the first step from adopt_step on at which the
-  // worker is done, never waiting). Ownership: background_matrix and spare belong to the worker from the request
-  // until job_done is seen under the mutex; background_rotations only to this thread.
+  // worker is done, never waiting). Ownership: background_matrix and spare belong to the
+  // worker from the request until job_done is seen under the mutex; background_rotations only
+  // to this thread.
   std::unique_ptr<CholmodFactor> spare;
   std::unique_ptr<SinglePrecisionFactor> spare_single;  // its copy, made by the worker
   Eigen::SparseMatrix<double> background_matrix;
@@ -354,9 +355,11 @@ struct FemSolver::Impl {
     if (adopt_step < 0 || step_index < adopt_step) return false;
     std::unique_lock<std::mutex> lock(mutex);
     if (config.refactor_adoption == FactorAdoption::kWhenReady && !job_done) return false;
-    lag = static_cast<int>(step_index - adopt_step) + config.refactor_adopt_delay;
+    const int steps_since_request =
+        static_cast<int>(step_index - adopt_step) + config.refactor_adopt_delay;
     waited = WaitForJob(lock);
     if (!job_ok) return false;  // a failed factorization is dropped, the old factor stays
+    lag = steps_since_request;
     std::swap(active, spare);
     std::swap(active_single, spare_single);
     std::swap(reference_rotations, background_rotations);
