@@ -19,6 +19,12 @@ struct CholmodFactor::Impl {
     cholmod_start(&common);
     common.supernodal = CHOLMOD_SUPERNODAL;
     common.final_asis = 1;  // keep the supernodal LL' form
+    // fill-reducing ordering: the one of AMD and METIS (nested dissection) with the fewest
+    // nonzeros in L. CHOLMOD's default (nmethods = 0) tries METIS only when AMD's fill looks high
+    // (flops / nnz(L) >= 500), which the 2660-node liver just misses (489): there METIS gives
+    // 13 % fewer nonzeros and a third fewer flops (1.53 M against 1.75 M, 0.57 against 0.86
+    // GFlop), so smaller solves and faster refreshes. method[0] is a given permutation (none).
+    common.nmethods = 3;
     common.print = 0;
     common.error_handler = nullptr;
   }
