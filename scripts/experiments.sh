@@ -54,6 +54,8 @@
 #                           paths: the repository, the build ($NSIM_BUILD_DIR) and the results
 #                           folder at the same absolute path on every host (a shared file system,
 #                           e.g. NFS); nothing is copied. ssh must log in without a prompt.
+#                           The build is for its machine's CPU (-march=native): for hosts with
+#                           other CPUs configure it with -DNSIM_ARCH=x86-64-v2 (README).
 #   --slurm                 runs nothing: writes DIR/experiments.sbatch, a Slurm job array with
 #                           one task per line of DIR/jobs.txt (same paths on every node, as for
 #                           --hosts; --jobs N limits the tasks running at once), to submit with
