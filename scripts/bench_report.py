@@ -171,6 +171,21 @@ def write_readme(path, out, lines):
     os.replace(path + ".tmp", path)
 
 
+def build_arch(build):
+    """The instruction set a build directory was configured for: its CMakeCache's NSIM_ARCH
+    ("-march=native", ...), the compiler's default when the option is empty or absent (builds
+    before it existed), "?" when there is no cache to read."""
+    try:
+        with open(os.path.join(build, "CMakeCache.txt")) as f:
+            for line in f:
+                if line.startswith("NSIM_ARCH:"):
+                    value = line.split("=", 1)[1].strip()
+                    return f"-march={value}" if value else "the compiler's default -march"
+    except OSError:
+        return "?"
+    return "the compiler's default -march"
+
+
 def write_markdown(out, table, args, contexts):
     current = table.get("current", {})
     lines = []
@@ -181,8 +196,9 @@ def write_markdown(out, table, args, contexts):
                  f"{ctx.get('mhz_per_cpu', '?')} MHz, load average "
                  f"{ctx.get('load_avg', '?')} at the start; OPENBLAS_NUM_THREADS=1 "
                  f"OMP_NUM_THREADS=1 OMP_THREAD_LIMIT=1, taskset -c {args.cpu}. Build "
-                 f"`{args.build}`" + (f", baseline `{args.baseline}`" if args.baseline else "") +
-                 ".")
+                 f"`{args.build}` ({build_arch(args.build)})" +
+                 (f", baseline `{args.baseline}` ({build_arch(args.baseline)})"
+                  if args.baseline else "") + ".")
     lines.append("")
     lines.append("Times: median over the repetitions of the wall time per iteration (per step "
                  "for the step benchmarks). p50 / p99 / max step: medians over the repetitions "
@@ -279,7 +295,8 @@ def main():
     merged = {
         "context": runs[0]["context"],
         "nsim": {"cpu": args.cpu, "two_cores": args.two_cores, "build": args.build,
-                 "baseline": args.baseline,
+                 "baseline": args.baseline, "build_arch": build_arch(args.build),
+                 "baseline_arch": build_arch(args.baseline) if args.baseline else "",
                  "runs": [{"label": r["label"], "binary": r["binary"], "context": r["context"]}
                           for r in runs]},
         "benchmarks": [dict(b, nsim_label=r["label"], nsim_binary=r["binary"])

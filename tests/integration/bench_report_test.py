@@ -103,6 +103,27 @@ def main():
                             "--two-cores", "none", "--readme", readme, out], capture_output=True)
         check(r.returncode != 0 and b"bench:goals" in r.stderr, "a README without the block refused")
 
+    with tempfile.TemporaryDirectory() as out:  # the builds' instruction sets in the header
+        os.makedirs(os.path.join(out, "raw"))
+        with open(os.path.join(out, "raw", "current__fem_bench.json"), "w") as f:
+            json.dump({"context": {}, "benchmarks": bench("LiverStep/2660", [9.0])}, f)
+        native, old, none = (os.path.join(out, d) for d in ("native", "old", "none"))
+        for d, cache in ((native, "NSIM_ARCH:STRING=native\n"), (old, "CMAKE_BUILD_TYPE:STRING=Release\n")):
+            os.makedirs(d)
+            with open(os.path.join(d, "CMakeCache.txt"), "w") as f:
+                f.write("# cache\n" + cache)
+        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                        "--two-cores", "none", "--build", native, "--baseline", old, out], check=True)
+        md = open(os.path.join(out, "bench.md")).read()
+        check(f"`{native}` (-march=native), baseline `{old}` (the compiler's default -march)" in md,
+              "the builds' -march in the header")
+        nsim = json.load(open(os.path.join(out, "bench.json")))["nsim"]
+        check(nsim["build_arch"] == "-march=native" and
+              nsim["baseline_arch"] == "the compiler's default -march", f"arch in bench.json {nsim}")
+        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                        "--two-cores", "none", "--build", none, out], check=True)
+        check(f"`{none}` (?)" in open(os.path.join(out, "bench.md")).read(), "no cache: unknown")
+
     for f in failures:
         print("FAILED:", f)
     print("bench_report_test:", "ok" if not failures else f"{len(failures)} failures")
