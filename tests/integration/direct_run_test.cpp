@@ -45,10 +45,11 @@ fs::path WriteScenario(const fs::path& dir,
 
 TEST(DirectRun, NoControllerInsertionPuncturesSkinAndLiver) {
   const fs::path dir = TempDir("direct_run");
-  // the file asks for refreshes adopted when ready; a lockstep run adopts them on schedule
+  // the default scenario asks for refreshes adopted when ready (the edit to itself fails the
+  // test if it stops asking); a lockstep run adopts them on schedule
   const fs::path scenario = WriteScenario(
       dir, {{"speed: 0.01", "speed: 0.02"},
-            {"refactor_adoption: scheduled", "refactor_adoption: when_ready"}});
+            {"refactor_adoption: when_ready", "refactor_adoption: when_ready"}});
   const std::string partition = "direct_run_" + std::to_string(getpid());
   // lockstep without a controller: nothing to wait for, runs as fast as it can
   ChildProcess run(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(), "--out",

@@ -106,16 +106,16 @@ TEST(ScenarioLoaderTest, RefactorAdoptionIsScheduledInLockstep) {
     return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
                                SourcePath("configs/scenarios"));
   };
-  const DirectScenario by_default = load(DefaultText());
-  EXPECT_EQ(by_default.scene.liver.refactor_adoption, FactorAdoption::kScheduled);
-  DirectScenario ready =
-      load(Edited("refactor_adoption: scheduled", "refactor_adoption: when_ready"));
+  DirectScenario ready = load(DefaultText());  // the default scenario asks for when_ready
   EXPECT_EQ(ready.scene.liver.refactor_adoption, FactorAdoption::kWhenReady);
+  const DirectScenario scheduled =
+      load(Edited("refactor_adoption: when_ready", "refactor_adoption: scheduled"));
+  EXPECT_EQ(scheduled.scene.liver.refactor_adoption, FactorAdoption::kScheduled);
   ready.run.mode = RunMode::kRealtime;
   EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kWhenReady);
   ready.run.mode = RunMode::kLockstep;
   EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kScheduled);
-  EXPECT_NE(LoadError(Edited("refactor_adoption: scheduled", "refactor_adoption: soon"))
+  EXPECT_NE(LoadError(Edited("refactor_adoption: when_ready", "refactor_adoption: soon"))
                 .find("refactor_adoption"),
             std::string::npos);
 }
