@@ -6,7 +6,7 @@
 # the controller's model too, and the flexible needle (patient and model).
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
-#                          [--latency-steps N[,N...]] [--gain K] [--bevel] [--dof7]
+#                          [--latency-steps N[,N...]] [--gain K] [--e-spread F] [--bevel] [--dof7]
 #                          [--model-bevel] [--flexible]
 #                          [--settings REGEX] [--no-build] [--transport in_process|dds] [--jobs N] [--timeout S]
 #                          [--hosts H1,H2,... | --slurm] [--dry-run]
@@ -35,6 +35,9 @@
 # inverse.bevel: patient), flex_pred_on/off (--flexible: the patient's needle flexible and the
 # model's the same, inverse.needle: patient) and, with --bevel as well, flex_bevel_pred_on/off
 # (both flexible, both beveled).
+# --e-spread F: the patient's E is drawn uniformly within E0 (1 +- F), F in [0, 1) (default
+# 0.13, the thesis's +-13 %); 0 gives every run the model's nominal E, with the same breathing
+# seeds (the draws consume the same random numbers), to take the stiffness error out of a batch.
 # --gain K sets the control gains k (eq. 3.9 / A.3) of every setting (the scenarios' default,
 # 0.2, serves every latency with controller.compensate_in_flight: README, "Control under
 # latency").
@@ -75,7 +78,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=20
-latency=1; gain=""; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
+latency=1; gain=""; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
 model_bevel=0; flexible=0
 transport=in_process; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
@@ -83,7 +86,7 @@ die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # the options that take a value must have one
   case "$1" in
-    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--e-spread|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
       [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
   esac
   case "$1" in
@@ -93,6 +96,7 @@ while [ $# -gt 0 ]; do
     --duration) duration="$2"; shift 2 ;;
     --latency-steps) latency="$2"; shift 2 ;;
     --gain) gain="$2"; shift 2 ;;
+    --e-spread) espread="$2"; shift 2 ;;
     --bevel) bevel=1; shift ;;
     --dof7) dof7=1; shift ;;
     --model-bevel) model_bevel=1; shift ;;
@@ -122,6 +126,8 @@ fi
 [ -f "$scenario" ] || die "--scenario: no such file: $scenario"
 [ -z "$gain" ] || [[ "$gain" =~ ^(0?\.[0-9]*[1-9][0-9]*|1(\.0*)?)$ ]] \
   || die "--gain must be a number in (0, 1], got '$gain'"
+[[ "$espread" =~ ^(0(\.[0-9]*)?|\.[0-9]+)$ ]] \
+  || die "--e-spread must be a fraction in [0, 1), got '$espread'"
 case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
 [ -z "$jobs" ] || [[ "$jobs" =~ ^[1-9][0-9]*$ ]] || die "--jobs must be a positive integer, got '$jobs'"
 [[ "$timeout" =~ ^[1-9][0-9]*$ ]] || die "--timeout must be a positive integer (seconds), got '$timeout'"
@@ -141,12 +147,14 @@ fi
 # runs.csv in the order of jobs.txt (setting, then run) whatever order the runs ended in; a run
 # without a summary (failed to start, killed by the timeout) is a row "no_summary"
 collect_batch() {  # collect_batch DIR
-  local dir="$1" e0 bseed blatency
+  local dir="$1" e0 espread_pct bseed blatency
   [[ -f "$dir/jobs.txt" && -f "$dir/batch.txt" ]] \
     || die "--collect: $dir is not a batch folder (no jobs.txt and batch.txt)"
   command -v jq > /dev/null || { echo "experiments: jq is missing: run scripts/setup.sh" >&2; exit 1; }
   meta() { awk -v k="$1" '$1 == k { print $2; exit }' "$dir/batch.txt"; }
   e0="$(meta e0)"; bseed="$(meta seed)"; blatency="$(meta latency_steps)"
+  # batches from before --e-spread have no e_spread line: they used 0.13
+  espread_pct="$(awk -v f="$(meta e_spread)" 'BEGIN { printf "%g", 100 * (f == "" ? 0.13 : f) }')"
   echo "setting,run,seed,young_modulus_pa,exit,final_error_mm,final_error_amplitude_mm,min_distance_mm,direct_rate_hz,inverse_rate_hz,loop_latency_ms,nrms_mean_percent,rejected_targets" > "$dir/runs.csv"
   local name r rseed emod _
   while IFS=$'\t' read -r name r rseed emod _; do
@@ -165,7 +173,7 @@ collect_batch() {  # collect_batch DIR
                    c ? a[s] / c : 0, sd(a[s], a2[s], c), m[s] ? sprintf("%.1f", nr[s] / m[s]) : "-", bad[s] + 0 } }' \
     "$dir/runs.csv" > "$dir/table.txt"
   { echo; echo "mean +- std over runs; final error = mean true tip-to-target distance over the last 20 % of each run,"
-    echo "amplitude = its peak-to-peak; patient E uniform in $e0 Pa +-13 % (seed $bseed), lockstep latency $blatency steps"; } >> "$dir/table.txt"
+    echo "amplitude = its peak-to-peak; patient E uniform in $e0 Pa +-$espread_pct % (seed $bseed), lockstep latency $blatency steps"; } >> "$dir/table.txt"
   # prediction on against off, paired by run (same seed and E): mean +- std of the differences,
   # the paired t statistic (|t| > 2.08 is significant at 5 % for 22 runs), the runs where
   # prediction was better, and the change of the mean amplitude
@@ -399,9 +407,9 @@ h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
 # localization_delay is then a tracker's own delay, on top of the measured one)
 delay=$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')
 if awk '/^prediction:/{p=1; next} /^[^ #]/{p=0} p && /^  measure_latency: *true/{f=1} END{exit !f}' "$scenario"; then delay=""; fi
-# per run: breathing seed and the patient's Young's modulus, uniform in E0 (1 +- 0.13), seeded
-awk -v n="$runs" -v s="$seed" -v e0="$e0" 'BEGIN { srand(s); for (r = 0; r < n; r++)
-  printf "%d %d %.1f\n", r, s + r, e0 * (1 + 0.13 * (2 * rand() - 1)) }' > "$out/draws.txt"
+# per run: breathing seed and the patient's Young's modulus, uniform in E0 (1 +- e-spread), seeded
+awk -v n="$runs" -v s="$seed" -v e0="$e0" -v f="$espread" 'BEGIN { srand(s); for (r = 0; r < n; r++)
+  printf "%d %d %.1f\n", r, s + r, e0 * (1 + f * (2 * rand() - 1)) }' > "$out/draws.txt"
 # the job list, one run a line: setting, run, seed, E, scenario, controller flags (tab separated)
 for s in "${settings[@]}"; do
   IFS='|' read -r name cfg inv <<< "$s"
@@ -411,7 +419,7 @@ for s in "${settings[@]}"; do
 done > "$out/jobs.txt"
 njobs=$(wc -l < "$out/jobs.txt")
 # what --collect needs besides jobs.txt (the table's footer), and a record of the batch
-printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" latency_steps "$latency" \
+printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" e_spread "$espread" latency_steps "$latency" \
   duration_s "$duration" transport "$transport" timeout_s "$timeout" > "$out/batch.txt"
 
 # the one-run command shared by every job (parallel adds the job's six fields as {1}..{6},
@@ -478,7 +486,7 @@ if [ -n "$hosts" ]; then
   [ -z "$missing" ] || { echo "experiments: --hosts: a host does not see $bin, the scripts or $out at the same path:" >&2; echo "$missing" >&2; exit 1; }
 fi
 
-echo "experiments: $runs runs x ${#settings[@]} settings, lockstep (latency $latency steps), $duration s each, E0 = $e0 Pa +-13 %, $transport, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
+echo "experiments: $runs runs x ${#settings[@]} settings, lockstep (latency $latency steps), $duration s each, E0 = $e0 Pa +-$(awk -v f="$espread" 'BEGIN { printf "%g", 100 * f }') %, $transport, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
 start=$(date +%s.%N)
 pcode=0
 "${par[@]}" "$cmd" :::: "$out/jobs.txt" || pcode=$?
