@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# scripts/experiments.sh's batch description (--dry-run: no simulation runs): the per-run draws
+# of the breathing seed and the patient's Young's modulus, --e-spread, and its bad values.
+# Usage: experiments_batch_test.sh SOURCE_DIR
+set -euo pipefail
+src="${1:?usage: experiments_batch_test.sh SOURCE_DIR}"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+fails=0
+fail() { echo "FAIL: $*" >&2; fails=$((fails + 1)); }
+
+# batch DIR [options...]: a dry-run batch of 12 runs of one setting into DIR
+batch() {
+  local dir="$1"; shift
+  NSIM_RESULTS_DIR="$dir" timeout 60 "$src/scripts/experiments.sh" --runs 12 --seed 7 \
+    --settings pred_off --no-build --dry-run "$@" > "$dir.log" 2>&1
+}
+# column N of jobs.txt in DIR, one value a line
+column() { cut -f"$2" "$1/jobs.txt"; }
+
+batch "$work/default" || fail "default batch: exit $? ($(cat "$work/default.log"))"
+batch "$work/zero" --e-spread 0 || fail "--e-spread 0: exit $?"
+batch "$work/five" --e-spread 0.05 || fail "--e-spread 0.05: exit $?"
+
+e0=$(awk '/^  liver:/{l=1} l&&/young_modulus:/{print $2; exit}' "$src/configs/scenarios/liver_breathing.yaml")
+[ "$(wc -l < "$work/default/jobs.txt")" = 12 ] || fail "default: expected 12 jobs"
+[ "$(column "$work/default" 3 | tr '\n' ' ')" = "7 8 9 10 11 12 13 14 15 16 17 18 " ] \
+  || fail "default: the seeds are not 7..18: $(column "$work/default" 3 | tr '\n' ' ')"
+grep -qx 'e_spread 0.13' "$work/default/batch.txt" || fail "default: batch.txt lacks 'e_spread 0.13'"
+grep -qx 'e_spread 0' "$work/zero/batch.txt" || fail "--e-spread 0: batch.txt lacks 'e_spread 0'"
+
+# the same seeds whatever the spread; E within E0 (1 +- spread), 0.1 Pa rounding; the same
+# random numbers: (E - E0) scales with the spread
+paste <(column "$work/default" 3) <(column "$work/zero" 3) <(column "$work/five" 3) \
+      <(column "$work/default" 4) <(column "$work/zero" 4) <(column "$work/five" 4) > "$work/all"
+awk -v e0="$e0" '
+  function abs(x) { return x < 0 ? -x : x }
+  $1 != $2 || $1 != $3 { printf "run %d: seeds differ: %s %s %s\n", NR, $1, $2, $3; bad = 1 }
+  abs($4 - e0) > 0.13 * e0 + 0.05 { printf "run %d: E %s outside E0 +-13 %%\n", NR, $4; bad = 1 }
+  $5 != e0 { printf "run %d: --e-spread 0 gave E %s, not %s\n", NR, $5, e0; bad = 1 }
+  abs(($6 - e0) - ($4 - e0) * 0.05 / 0.13) > 0.1 { printf "run %d: --e-spread 0.05 gave E %s, expected %.1f\n", NR, $6, e0 + ($4 - e0) * 0.05 / 0.13; bad = 1 }
+  abs($4 - e0) > 0.05 * e0 { wide++ }
+  END { if (wide == 0) { print "no default draw beyond +-5 %: not a +-13 % spread"; bad = 1 }; exit bad }' \
+  "$work/all" >&2 || fail "the draws (above)"
+
+# bad values: exit 2 and a message that names the option
+for v in 1.5 1 -0.1 abc ''; do
+  if batch "$work/bad" --e-spread "$v"; then
+    fail "--e-spread '$v' was accepted"
+  else
+    rc=$?
+    [ "$rc" = 2 ] || fail "--e-spread '$v': exit $rc, expected 2"
+    grep -q -- '--e-spread' "$work/bad.log" || fail "--e-spread '$v': the message does not name the option: $(cat "$work/bad.log")"
+  fi
+  rm -rf "$work/bad"
+done
+
+if [ "$fails" -gt 0 ]; then echo "experiments_batch_test: $fails failure(s)" >&2; exit 1; fi
+echo "experiments_batch_test: passed"
