@@ -12,6 +12,12 @@
 Each share is the mean of its distance over the window's answered frames; the mean vector of
 the registration error (model - true, mm) shows its direction.
 
+Where the registration error comes from in time: the registration error at the last answered
+frame before the needle punctures the skin (breathing alone: the markers drive both livers the
+same way) and before it punctures the liver (the skin's pull on the liver added), from the
+patient's `phase` column (0 outside, 1 in skin, 2 in liver). A run whose needle never reached a
+stage prints "-" for it, and the mean over runs takes the runs that did.
+
 usage: scripts/error_budget.py RUN_DIR [RUN_DIR ...]
   RUN_DIR holds direct/timeseries.csv and inverse/inverse.csv (scripts/experiments.sh's
   SETTING/run_R, or the --out / --controller-out folders of direct_sim run --in-process given as
@@ -50,13 +56,21 @@ def rows(path, keys):
 
 def budget(direct_csv, inverse_csv):
     xyz = lambda p: [p + "_" + a for a in "xyz"]
-    truth = rows(direct_csv, ["t"] + xyz("target") + xyz("tip"))
+    truth = rows(direct_csv, ["t", "phase"] + xyz("target") + xyz("tip"))
     model = rows(inverse_csv, ["sim_time", "valid"] + xyz("model_tip") + xyz("model_target"))
     by_time = {round(r["t"], 9): r for r in truth}
     start = 0.8 * truth[-1]["t"]
     final, registration, control, vector = [], [], [], [0.0, 0.0, 0.0]
+    # the first time the patient's needle is in the skin (phase >= 1) and in the liver (2)
+    punctures = [next((r["t"] for r in truth if r["phase"] >= stage), None) for stage in (1, 2)]
+    before = [None, None]  # registration error at the last answered frame before each
     for m in model:
         t = round(m["sim_time"], 9)
+        if m["valid"] == 1 and t in by_time:
+            for i, when in enumerate(punctures):
+                if when is not None and t < when:
+                    before[i] = 1e3 * math.dist([m[k] for k in xyz("model_target")],
+                                                [by_time[t][k] for k in xyz("target")])
         if t < start or t not in by_time or m["valid"] != 1:
             continue
         d = by_time[t]
@@ -73,7 +87,11 @@ def budget(direct_csv, inverse_csv):
         fail("%s and %s: no answered frame in the last 20 %% of the run" % (direct_csv, inverse_csv))
     n = len(final)
     mean = lambda v: sum(v) / len(v)
-    return mean(final), mean(registration), mean(control), [v / n for v in vector], n
+    return mean(final), mean(registration), mean(control), [v / n for v in vector], n, before
+
+
+def mm(value):
+    return "-" if value is None else "%.3f mm" % value
 
 
 def main(argv):
@@ -86,15 +104,22 @@ def main(argv):
             direct_dir, inverse_dir = arg.split(":", 1)
         else:
             direct_dir, inverse_dir = os.path.join(arg, "direct"), os.path.join(arg, "inverse")
-        f, r, c, v, n = budget(os.path.join(direct_dir, "timeseries.csv"),
-                               os.path.join(inverse_dir, "inverse.csv"))
-        totals.append((f, r, c))
+        f, r, c, v, n, before = budget(os.path.join(direct_dir, "timeseries.csv"),
+                                       os.path.join(inverse_dir, "inverse.csv"))
+        totals.append((f, r, c, before[0], before[1]))
         print("%s: final %.3f mm = registration %.3f mm (model - true: %+.3f %+.3f %+.3f mm), "
-              "control %.3f mm; %d frames" % (arg, f, r, v[0], v[1], v[2], c, n))
+              "control %.3f mm; %d frames; registration before the skin's puncture %s, "
+              "before the liver's %s" % (arg, f, r, v[0], v[1], v[2], c, n, mm(before[0]),
+                                         mm(before[1])))
     if len(totals) > 1:
         m = [sum(t[i] for t in totals) / len(totals) for i in range(3)]
-        print("mean over %d runs: final %.3f mm, registration %.3f mm, control %.3f mm"
-              % (len(totals), m[0], m[1], m[2]))
+        stage = []
+        for i in (3, 4):
+            reached = [t[i] for t in totals if t[i] is not None]
+            stage.append(mm(sum(reached) / len(reached) if reached else None))
+        print("mean over %d runs: final %.3f mm, registration %.3f mm, control %.3f mm; "
+              "registration before the skin's puncture %s, before the liver's %s"
+              % (len(totals), m[0], m[1], m[2], stage[0], stage[1]))
     return 0
 
 

@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# scripts/error_budget.py on two synthetic runs whose shares are known by construction: the true
+# target fixed, the true tip 0.3 mm from it, the model's target offset from the true one by an
+# amount that changes at the skin's and the liver's punctures, the model's tip on the true tip.
+# Checks the window's shares, the registration before each puncture, the mean over runs (a run
+# that never reaches the liver is left out of that stage's mean), and bad input (exit 2 naming
+# the file and the column).
+# Usage: error_budget_test.sh SOURCE_DIR
+set -euo pipefail
+src="${1:?usage: error_budget_test.sh SOURCE_DIR}"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+fails=0
+fail() { echo "FAIL: $*" >&2; fails=$((fails + 1)); }
+
+# make_run DIR SKIN_T LIVER_T: 10 s at 50 Hz; registration offset (along x) 0.001 mm before the
+# skin's puncture, 0.1 mm before the liver's, 0.5 mm after it; LIVER_T > 10 never punctures it
+make_run() {
+  mkdir -p "$1/direct" "$1/inverse"
+  /usr/bin/python3 - "$1" "$2" "$3" <<'PY'
+import sys
+d, skin, liver = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
+with open(d + "/direct/timeseries.csv", "w") as f, open(d + "/inverse/inverse.csv", "w") as g:
+    f.write("t,phase,target_x,target_y,target_z,tip_x,tip_y,tip_z\n")
+    g.write("answers_seq,sim_time,valid,model_tip_x,model_tip_y,model_tip_z,"
+            "model_target_x,model_target_y,model_target_z\n")
+    for k in range(1, 501):
+        t = round(0.02 * k, 2)
+        phase = 2 if t >= liver else 1 if t >= skin else 0
+        offset = 0.5e-3 if phase == 2 else 0.1e-3 if phase == 1 else 1e-6
+        f.write("%.2f,%d,0.01,0.02,0.03,0.01,0.02,0.0303\n" % (t, phase))
+        # every tenth frame unanswered (valid 0, garbage values): must be skipped
+        valid = 0 if k % 10 == 0 else 1
+        target = (0.01 + offset, 0.02, 0.03) if valid else (9, 9, 9)
+        g.write("%d,%.2f,%d,0.01,0.02,0.0303,%.9f,%.9f,%.9f\n" % ((k,) + (t, valid) + target))
+PY
+}
+make_run "$work/a" 1.02 2.02
+make_run "$work/b" 3.02 20.0
+
+out="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/a" "$work/b")" \
+  || fail "two runs: exit $?"
+echo "$out"
+line_a="$(echo "$out" | grep "^$work/a:")"
+line_b="$(echo "$out" | grep "^$work/b:")"
+mean="$(echo "$out" | grep '^mean over 2 runs:')"
+# run a: final 0.3 mm; registration sqrt(0.5^2) = 0.5 mm along +x; control |(0.5, 0, -0.3)| mm
+[[ "$line_a" == *"final 0.300 mm = registration 0.500 mm (model - true: +0.500 +0.000 +0.000 mm), control 0.583 mm; 90 frames"* ]] \
+  || fail "run a's window: $line_a"
+[[ "$line_a" == *"before the skin's puncture 0.001 mm, before the liver's 0.100 mm" ]] \
+  || fail "run a's stages: $line_a"
+# run b stays in the skin: 0.1 mm in the window, no liver stage
+[[ "$line_b" == *"registration 0.100 mm"* && "$line_b" == *"before the skin's puncture 0.001 mm, before the liver's -" ]] \
+  || fail "run b: $line_b"
+[[ "$mean" == "mean over 2 runs: final 0.300 mm, registration 0.300 mm, control "*"; registration before the skin's puncture 0.001 mm, before the liver's 0.100 mm" ]] \
+  || fail "mean: $mean"
+
+# bad input: a missing phase column, a missing file
+sed -i '1s/phase/stage/' "$work/b/direct/timeseries.csv"
+if msg="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/b" 2>&1)"; then
+  fail "no phase column: exit 0"
+else
+  [ $? = 2 ] && [[ "$msg" == *timeseries.csv*"no column phase"* ]] || fail "no phase column: $msg"
+fi
+rm "$work/a/inverse/inverse.csv"
+if msg="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/a" 2>&1)"; then
+  fail "missing inverse.csv: exit 0"
+else
+  [[ "$msg" == *"inverse.csv: missing"* ]] || fail "missing inverse.csv: $msg"
+fi
+
+[ "$fails" = 0 ] && echo "error_budget_test: passed" || { echo "error_budget_test: $fails failed" >&2; exit 1; }
