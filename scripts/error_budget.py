@@ -66,20 +66,21 @@ def budget(direct_csv, inverse_csv):
     before = [None, None]  # registration error at the last answered frame before each
     for m in model:
         t = round(m["sim_time"], 9)
-        if m["valid"] == 1 and t in by_time:
-            for i, when in enumerate(punctures):
-                if when is not None and t < when:
-                    before[i] = 1e3 * math.dist([m[k] for k in xyz("model_target")],
-                                                [by_time[t][k] for k in xyz("target")])
-        if t < start or t not in by_time or m["valid"] != 1:
+        if m["valid"] != 1 or t not in by_time:
             continue
         d = by_time[t]
         target = [d[k] for k in xyz("target")]
-        tip = [d[k] for k in xyz("tip")]
         model_target = [m[k] for k in xyz("model_target")]
+        registered = 1e3 * math.dist(model_target, target)
+        for i, when in enumerate(punctures):
+            if when is not None and t < when:
+                before[i] = registered
+        if t < start:
+            continue
+        tip = [d[k] for k in xyz("tip")]
         model_tip = [m[k] for k in xyz("model_tip")]
         final.append(1e3 * math.dist(target, tip))
-        registration.append(1e3 * math.dist(model_target, target))
+        registration.append(registered)
         control.append(1e3 * math.dist(model_target, model_tip))
         for i in range(3):
             vector[i] += 1e3 * (model_target[i] - target[i])
@@ -106,7 +107,7 @@ def main(argv):
             direct_dir, inverse_dir = os.path.join(arg, "direct"), os.path.join(arg, "inverse")
         f, r, c, v, n, before = budget(os.path.join(direct_dir, "timeseries.csv"),
                                        os.path.join(inverse_dir, "inverse.csv"))
-        totals.append((f, r, c, before[0], before[1]))
+        totals.append((f, r, c, before))
         print("%s: final %.3f mm = registration %.3f mm (model - true: %+.3f %+.3f %+.3f mm), "
               "control %.3f mm; %d frames; registration before the skin's puncture %s, "
               "before the liver's %s" % (arg, f, r, v[0], v[1], v[2], c, n, mm(before[0]),
@@ -114,8 +115,8 @@ def main(argv):
     if len(totals) > 1:
         m = [sum(t[i] for t in totals) / len(totals) for i in range(3)]
         stage = []
-        for i in (3, 4):
-            reached = [t[i] for t in totals if t[i] is not None]
+        for i in range(2):  # each stage over the runs that reached it
+            reached = [t[3][i] for t in totals if t[3][i] is not None]
             stage.append(mm(sum(reached) / len(reached) if reached else None))
         print("mean over %d runs: final %.3f mm, registration %.3f mm, control %.3f mm; "
               "registration before the skin's puncture %s, before the liver's %s"
