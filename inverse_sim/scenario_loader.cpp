@@ -131,7 +131,7 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
                  InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "tip_ramp", "jacobian_friction", "constraint_compliance", "friction_coefficient", "anchors",
+                 "tip_constraint", "tip_ramp", "lateral_compliance", "tip_compliance", "jacobian_friction", "constraint_compliance", "friction_coefficient", "anchors",
                  "bevel", "needle"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
@@ -144,6 +144,8 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
   inv.Read("point_spacing", &s->loop.model.point_spacing);
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
   inv.Read("tip_ramp", &s->loop.model.tip_ramp);
+  inv.Read("lateral_compliance", &s->loop.model.lateral_compliance);
+  inv.Read("tip_compliance", &s->loop.model.tip_compliance);
   const int jacobian_friction = inv.ReadChoice("jacobian_friction", {"held", "solved"});
   if (jacobian_friction >= 0) s->loop.model.jacobian_friction_held = jacobian_friction == 0;
   inv.Read("friction_coefficient", &s->loop.model.friction_coefficient);

@@ -100,13 +100,24 @@ void ConstraintSet::CheckPoint(int p, const char* what) const {
         Str("constraints: ", what, " point index must be in [0, ", num_points(), "), got ", p));
 }
 
-void ConstraintSet::SetSoftness(int first_row, int num_rows, double softness) {
+void ConstraintSet::CheckRows(int first_row, int num_rows) const {
   if (!(first_row >= 0 && num_rows >= 0 && first_row + num_rows <= this->num_rows()))
     throw InputError(Str("constraints: rows [", first_row, ", ", first_row + num_rows,
                          ") are not rows of the set (", this->num_rows(), " rows)"));
+}
+
+void ConstraintSet::SetSoftness(int first_row, int num_rows, double softness) {
+  CheckRows(first_row, num_rows);
   if (!(softness >= 0.0 && std::isfinite(softness)))
     throw InputError(Str("constraints: row softness must be finite and >= 0, got ", softness));
   for (int i = first_row; i < first_row + num_rows; ++i) rows_[i].softness = softness;
+}
+
+void ConstraintSet::SetCompliance(int first_row, int num_rows, double compliance) {
+  CheckRows(first_row, num_rows);
+  if (!(compliance >= 0.0 && std::isfinite(compliance)))
+    throw InputError(Str("constraints: row compliance must be finite and >= 0 m/N, got ", compliance));
+  for (int i = first_row; i < first_row + num_rows; ++i) rows_[i].compliance = compliance;
 }
 
 int ConstraintSet::AddRow(const std::vector<ConstraintTerm>& terms, double target) {

@@ -70,6 +70,11 @@ struct ConstraintRow {
   /// rigid link. Alone, a bilateral row then removes the fraction 1 / (1 + softness) of its
   /// free violation (0: rigid, the default). For a hold that fades in or out continuously.
   double softness = 0.0;
+  /// The row's own compliance in m/N, >= 0, added to its diagonal after the softness: the
+  /// solve uses W_ii (1 + softness) + compliance, a spring of stiffness 1 / compliance in
+  /// series with the bodies whatever their own compliance (0: rigid, the default). For the
+  /// tissue around a needle that the mesh does not resolve (needle_tissue.h).
+  double compliance = 0.0;
 };
 
 /// The constraint problem of one step. Refill it every step (Clear keeps the capacity); the
@@ -130,6 +135,9 @@ class ConstraintSet {
   /// Sets the softness (see ConstraintRow) of rows [first_row, first_row + num_rows); InputError
   /// unless it is finite and >= 0.
   void SetSoftness(int first_row, int num_rows, double softness);
+  /// Sets the compliance (m/N, see ConstraintRow) of rows [first_row, first_row + num_rows);
+  /// InputError for rows outside the set or a compliance that is negative or not finite.
+  void SetCompliance(int first_row, int num_rows, double compliance);
   /// Low-level: makes the last `num_rows` rows (not yet grouped) one group of a law other than
   /// kAxialFriction (AddAxialFriction). Returns its index.
   int AddGroup(ConstraintLaw law, int num_rows, double mu = 0.0);
@@ -166,6 +174,8 @@ class ConstraintSet {
   int AddPointImpl(int body, const int* nodes, const double* weights, int count, std::uint64_t key);
   int AddGroupImpl(const ConstraintGroup& group);
   void CheckPoint(int p, const char* what) const;
+  // InputError unless [first_row, first_row + num_rows) are rows of the set
+  void CheckRows(int first_row, int num_rows) const;
 
   std::vector<ConstraintBody*> bodies_;
   std::vector<ConstraintPoint> points_;

@@ -138,13 +138,16 @@ ConstraintSolveReport SolveConstraintLaws(const Eigen::MatrixXd& W, const Eigen:
                                           const ConstraintSolverConfig& config,
                                           ConstraintWorkspace& workspace, Eigen::VectorXd& lambda);
 
-/// W_ii *= 1 + rows[i].softness for every soft row (the rows' own compliance, constraint_set.h);
-/// W is the bodies' compliance of those rows, rows.size() square. Row: ConstraintRow, or a
-/// copy of it with a softness member (ConstraintSnapshot's).
+/// W_ii = W_ii (1 + rows[i].softness) + rows[i].compliance for every soft row (the rows' own
+/// compliance, constraint_set.h); W is the bodies' compliance of those rows, rows.size()
+/// square. Row: ConstraintRow, or a copy of it with softness and compliance members
+/// (ConstraintSnapshot's).
 template <typename Row>
 void ApplyRowSoftness(const std::vector<Row>& rows, Eigen::MatrixXd& W) {
-  for (int i = 0; i < static_cast<int>(rows.size()); ++i)
+  for (int i = 0; i < static_cast<int>(rows.size()); ++i) {
     if (rows[i].softness > 0.0) W(i, i) *= 1.0 + rows[i].softness;
+    if (rows[i].compliance > 0.0) W(i, i) += rows[i].compliance;
+  }
 }
 
 /// Solves the constraints of a step and applies the corrections. Keeps W, delta, lambda and

@@ -101,6 +101,10 @@ void TissueCouplingConfig::Validate(const std::string& prefix) const {
         point_spacing);
   check(contact_margin >= 0.0 && std::isfinite(contact_margin), "contact_margin", ">= 0 (m)",
         contact_margin);
+  check(lateral_compliance >= 0.0 && std::isfinite(lateral_compliance), "lateral_compliance",
+        ">= 0 (m/N)", lateral_compliance);
+  check(tip_compliance >= 0.0 && std::isfinite(tip_compliance), "tip_compliance", ">= 0 (m/N)",
+        tip_compliance);
   // Puncture forces of skin and organs are 0.1..10 N, friction coefficients below 1 and
   // friction along the shaft tens of N/m: 1000 N, 10 and 1e5 N/m bound anything physical;
   // path points are seeded mm apart in a needle at most 2 m long; a contact margin of 10 cm
@@ -110,6 +114,10 @@ void TissueCouplingConfig::Validate(const std::string& prefix) const {
   CheckAtMost(friction_force_per_length, 1e5, prefix + ".friction_force_per_length", "N/m");
   CheckAtMost(point_spacing, 2.0, prefix + ".point_spacing", "m");
   CheckAtMost(contact_margin, 0.1, prefix + ".contact_margin", "m");
+  // a point of the 2660-node liver holds its needle with ~330 N/m (h^2 A_0^-1 ~ 3e-3 m/N,
+  // point_compliance): 1 m/N, a 1 N/m spring, no longer holds anything
+  CheckAtMost(lateral_compliance, 1.0, prefix + ".lateral_compliance", "m/N");
+  CheckAtMost(tip_compliance, 1.0, prefix + ".tip_compliance", "m/N");
 }
 
 void NeedleCouplingConfig::Validate() const {
@@ -285,6 +293,7 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
       const int pt = set.AddBodyPoint(b, mesh.tets[p.point.tet], p.point.bary, p.key);
       const int pn = add_needle_point(u);
       CouplingRowTag tag = add_lateral_rows(pt, pn, z, CouplingRowTag::Kind::kLateral, t);
+      if (cfg.lateral_compliance > 0.0) set.SetCompliance(tag.row, 2, cfg.lateral_compliance);
       tag.point = i;
       state.tags.push_back(tag);
       if (!friction) continue;
@@ -309,6 +318,7 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
       const int pt = set.AddBodyPoint(b, mesh.tets[ts.tip.tet], ts.tip.bary, kTipPointKey);
       const int pn = add_needle_point(u_tip);
       state.tags.push_back(add_lateral_rows(pt, pn, z_tip_end, CouplingRowTag::Kind::kTip, t));
+      if (cfg.tip_compliance > 0.0) set.SetCompliance(set.num_rows() - 2, 2, cfg.tip_compliance);
       // ramp: softness full / past - 1 holds the fraction past / full of a rigid hold, from
       // nothing at the seed to rigid a quarter spacing past it, continuous in the depth
       if (past_seed < full_hold) set.SetSoftness(set.num_rows() - 2, 2, full_hold / past_seed - 1.0);

@@ -37,6 +37,11 @@
 //    (ConstraintRow::softness = quarter spacing / distance - 1): the hold grows in proportion
 //    to the tip's distance from the last point, from nothing at it to rigid at a quarter
 //    spacing, and the rows are skipped only within 2 % of that (a hold of at most 2 %).
+//    lateral_compliance and tip_compliance (m/N, 0 by default) put a spring in series with
+//    the lateral rows of the trajectory points and of the tip (ConstraintRow::compliance): the
+//    held material point then lags the needle by that compliance times its lateral force (the
+//    tissue around the needle that the mesh does not resolve; README "Where the registration
+//    error comes from" has what it did to the closed loop).
 //    A tip found outside the mesh within 10 % of point_spacing of the entry is just not held
 //    (it is at the entry surface: just punctured, or backing out).
 //  - kExited: the tip left the tissue through its far surface; an exit point is seeded where
@@ -88,6 +93,12 @@ struct TissueCouplingConfig {
   /// The tip's hold ramps in over the quarter spacing after a seeded point (true), or starts
   /// at once a quarter spacing after it (false; see the file comment).
   bool tip_ramp = false;
+  /// Compliance of the tissue around the needle that the mesh does not resolve (m/N), >= 0:
+  /// added in series to each lateral row of the trajectory points (ConstraintRow::compliance).
+  /// 0: the material point is held rigidly (the default).
+  double lateral_compliance = 0.0;
+  /// The same for the tip's lateral rows (m/N), >= 0; 0: rigid (the default).
+  double tip_compliance = 0.0;
   /// The contact search starts this far behind the tip (m), >= 0: catches a surface that moved
   /// onto the tip during the previous step.
   double contact_margin = 2e-3;

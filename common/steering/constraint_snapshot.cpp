@@ -73,6 +73,7 @@ void ConstraintSnapshot::Capture(const ConstraintSet& set, const ConstraintSolve
     row.num_terms = r.num_terms;
     row.target = r.target;
     row.softness = r.softness;
+    row.compliance = r.compliance;
     for (int t = r.first_term; t < r.first_term + r.num_terms; ++t) {
       const ConstraintTerm& term = set.term(t);
       const ConstraintPoint& point = set.point(term.point);

@@ -141,6 +141,7 @@ class ConstraintSnapshot {
     double target = 0.0;
     bool turns = false;  // directions turn with the needle
     double softness = 0.0;  // ConstraintRow::softness
+    double compliance = 0.0;  // ConstraintRow::compliance (m/N)
   };
 
   std::vector<Term> terms_;

@@ -53,6 +53,9 @@ void InverseModelConfig::Validate() const {
   CheckPositive(point_spacing, "inverse.point_spacing", " (m)");
   // Coulomb coefficients of needles in soft tissue are 0.05-0.5 (SOFA example: 0.1); 2 is absurd
   CheckRange(friction_coefficient, 0.0, 2.0, "inverse.friction_coefficient", "");
+  // the patient's bounds (TissueCouplingConfig::Validate): 1 m/N no longer holds anything
+  CheckRange(lateral_compliance, 0.0, 1.0, "inverse.lateral_compliance", " (m/N)");
+  CheckRange(tip_compliance, 0.0, 1.0, "inverse.tip_compliance", " (m/N)");
   for (size_t i = 0; i < anchors.size(); ++i) anchors[i].Validate(Str("inverse.anchors[", i, "]"));
   bevel.Validate("inverse.bevel");
   if (needle_kind == ModelNeedleKind::kFlexible)

@@ -69,6 +69,12 @@ struct InverseModelConfig {
   bool tip_constraint = true;
   /// The tip hold ramps in after each trajectory point (TissueCouplingConfig::tip_ramp).
   bool tip_ramp = false;
+  /// Series compliance of the lateral needle rows in the model liver (m/N), >= 0
+  /// (TissueCouplingConfig::lateral_compliance; YAML inverse.lateral_compliance).
+  double lateral_compliance = 0.0;
+  /// The same for the tip's lateral rows (TissueCouplingConfig::tip_compliance; YAML
+  /// inverse.tip_compliance).
+  double tip_compliance = 0.0;
   /// Coulomb coefficient of the needle's axial friction in the model liver (-), >= 0 (YAML
   /// inverse.friction_coefficient): the same law as the patient's needle (an axial friction row
   /// per trajectory point, common/needle/needle_tissue.h), with the model's own normal forces.

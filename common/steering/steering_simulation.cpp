@@ -91,6 +91,8 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   liver.point_spacing = config.point_spacing;
   liver.tip_constraint = config.tip_constraint;
   liver.tip_ramp = config.tip_ramp;
+  liver.lateral_compliance = config.lateral_compliance;
+  liver.tip_compliance = config.tip_compliance;
   coupling.tissues = {liver};
   coupling.bevel = config.bevel;
   coupling_ = std::make_unique<NeedleTissueCoupling>(coupling, std::vector<const TetMesh*>{&mesh_});

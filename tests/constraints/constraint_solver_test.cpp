@@ -101,6 +101,52 @@ TEST(ConstraintSolverTest, SoftRowRemovesItsFractionOfTheViolation) {
   EXPECT_THROW(set.SetSoftness(2, 2, 1.0), InputError);
 }
 
+// a row's own compliance c (ConstraintRow::compliance, m/N) is a spring in series with the body
+// whatever the body's compliance W: alone, the row removes the fraction W / (W + c) of the free
+// violation, with the force of a rigid hold times W / (W + c) (Hooke's law for two springs in
+// series); with softness s as well, W (1 + s) + c; a bad compliance is refused
+TEST(ConstraintSolverTest, RowComplianceIsASpringInSeries) {
+  const double mass = 0.5, h = 0.01;
+  const Eigen::Vector3d goal(0.002, -0.001, 0.003);
+  auto solve = [&](double softness, double compliance, Eigen::Vector3d* position,
+                   Eigen::Vector3d* force, double* body_compliance) {
+    DenseLinearBody body(MakeParticleConfig(Eigen::Vector3d::Zero(), mass, h, Eigen::Vector3d::Zero()));
+    body.SolveFreeMotion();
+    ConstraintSet set;
+    const int b = set.AddBody(body);
+    set.AddBilateral(set.AddNodePoint(b, 0), set.AddKinematicPoint(goal, goal),
+                     Eigen::Matrix3d::Identity());
+    if (softness > 0) set.SetSoftness(0, 3, softness);
+    if (compliance > 0) set.SetCompliance(0, 3, compliance);
+    ConstraintSolver solver;
+    EXPECT_TRUE(solver.Solve(set).converged);
+    *position = body.positions().col(0);
+    *force = solver.lambda();
+    *body_compliance = solver.W()(0, 0);
+  };
+  Eigen::Vector3d rigid_x, rigid_f, x, f;
+  double W = 0.0, assembled = 0.0;
+  solve(0.0, 0.0, &rigid_x, &rigid_f, &W);
+  EXPECT_NEAR(W, h * h / mass, 1e-15);  // a free particle: h^2 / m
+  for (double c : {0.1 * W, W, 20.0 * W}) {
+    solve(0.0, c, &x, &f, &assembled);
+    EXPECT_NEAR(assembled, W + c, 1e-15 * (W + c)) << c;
+    const double fraction = W / (W + c);
+    EXPECT_LE((x - fraction * goal).norm(), 1e-12) << c;
+    EXPECT_LE((f - fraction * rigid_f).norm(), 1e-9 * rigid_f.norm()) << c;
+    // with a softness too: W (1 + s) + c
+    solve(1.5, c, &x, &f, &assembled);
+    EXPECT_LE((x - W / (2.5 * W + c) * goal).norm(), 1e-12) << c;
+  }
+  ConstraintSet set;
+  DenseLinearBody body(MakeParticleConfig(Eigen::Vector3d::Zero(), mass, h, Eigen::Vector3d::Zero()));
+  const int b = set.AddBody(body);
+  set.AddBilateral(set.AddNodePoint(b, 0), set.AddKinematicPoint(goal, goal), Eigen::Matrix3d::Identity());
+  EXPECT_THROW(set.SetCompliance(0, 3, -1e-3), InputError);
+  EXPECT_THROW(set.SetCompliance(0, 3, std::numeric_limits<double>::infinity()), InputError);
+  EXPECT_THROW(set.SetCompliance(1, 3, 1e-3), InputError);
+}
+
 // two spring chains coupled by a bilateral joint: the joint impulses cancel, so the total
 // momentum changes only by the external impulse, and the joint holds
 TEST(ConstraintSolverTest, TwoCoupledBodiesConserveMomentum) {

@@ -107,6 +107,24 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
        2,
        "patient.gravity must be finite with a norm of at most 100 (m/s^2)"},
       {{kBin + "/direct_sim", "run", "--config",
+        testing::WriteEditedScenario(
+            dir, "tip_compliance.yaml", "liver_test_coarse.yaml",
+            {{"liver: {puncture_force: 0.3, friction_coefficient: 0.1, point_spacing: 0.013}",
+              "liver: {puncture_force: 0.3, friction_coefficient: 0.1, point_spacing: 0.013, "
+              "tip_compliance: -0.001}"}})
+            .string(),
+        "--check"},
+       2,
+       "needle.liver.tip_compliance must be >= 0 (m/N)"},
+      {{kBin + "/inverse_sim", "run", "--config",
+        testing::WriteEditedScenario(dir, "lateral_compliance.yaml", "liver_test_coarse.yaml",
+                                     {{"  point_spacing: 0.013\n",
+                                       "  point_spacing: 0.013\n  lateral_compliance: 5.0\n"}})
+            .string(),
+        "--check", "--quiet"},
+       2,
+       "inverse.lateral_compliance must be in [0, 1]"},
+      {{kBin + "/direct_sim", "run", "--config",
         testing::WriteEditedScenario(dir, "dup.yaml", "liver_test_coarse.yaml",
                                      {{"duration: 8.0", "duration: 8.0\n  duration: 9.0"}})
             .string(),

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
 
 #include "common/core/error.h"
 #include "tests/needle/test_scene.h"
@@ -264,6 +266,37 @@ TEST(NeedleTissueTest, TipHoldRampsInAfterASeededPoint) {
   EXPECT_LT(near_point, near_quarter);
 }
 
+// lateral_compliance c: each trajectory point is held by a spring of compliance c in series with
+// the tissue, so under a sideways drift the point lags the needle line by c times its lateral
+// force (Hooke), where the rigid hold keeps it on the line; the softer hold carries less force
+TEST(NeedleTissueTest, LateralComplianceIsASpringBetweenPointAndNeedle) {
+  double rigid_force = 0.0, soft_force = 0.0;
+  for (double c : {0.0, 0.5}) {  // m/N; the block's own point compliance is ~0.1-1 m/N
+    TissueCouplingConfig tissue = MakeTissue();
+    tissue.lateral_compliance = c;
+    tissue.tip_constraint = false;
+    Scene scene(tissue);
+    int checked = 0;
+    for (int k = 0; k < 40; ++k) {
+      const bool was_inside = scene.report().phase == TissuePhase::kInside;
+      const size_t held = scene.tissue().points.size();
+      ASSERT_TRUE(scene.Step(0.5e-3, Eigen::Vector3d(4e-5, 0.0, 0.0)).solve.converged);
+      if (!was_inside) continue;
+      for (size_t i = 1; i < held; ++i) {  // trajectory points (the entry is point 0)
+        const NeedlePathPoint& p = scene.tissue().points[i];
+        const double offset = scene.DistanceToNeedle(p);
+        EXPECT_NEAR(offset, c * p.lateral_force.norm(), 1e-6 * offset + kLineTol) << "step " << k;
+        if (c > 0 && p.lateral_force.norm() > 0) ++checked;
+      }
+    }
+    (c > 0 ? soft_force : rigid_force) = scene.report().lateral_force;
+    if (c > 0) EXPECT_GE(checked, 10);
+  }
+  std::printf("lateral force after the drift: rigid %.4g N, compliant %.4g N\n", rigid_force, soft_force);
+  EXPECT_GT(rigid_force, 0.0);
+  EXPECT_LT(soft_force, rigid_force);
+}
+
 TEST(NeedleTissueTest, BadConfigNamesTheKey) {
   NeedleCouplingConfig config;
   config.tissues.resize(2);
@@ -279,6 +312,12 @@ TEST(NeedleTissueTest, BadConfigNamesTheKey) {
   config.tissues[0].friction_coefficient = -1;
   EXPECT_THROW(config.Validate(), InputError);
   config.tissues[0].friction_coefficient = 0;
+  config.tissues[0].lateral_compliance = -1e-3;
+  EXPECT_THROW(config.Validate(), InputError);
+  config.tissues[0].lateral_compliance = 0;
+  config.tissues[0].tip_compliance = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(config.Validate(), InputError);
+  config.tissues[0].tip_compliance = 0;
   const TetMesh mesh = MakeBoxTetMesh(Eigen::Vector3i(2, 2, 2), Eigen::Vector3d(1, 1, 1));
   EXPECT_THROW(NeedleTissueCoupling(config, {&mesh}), InputError);  // one mesh for two tissues
 }

@@ -141,10 +141,13 @@ TEST(ConstraintSnapshotTest, PerturbedPoseGivesTheFullSolveWithTheNeedleMoved) {
   EXPECT_GT((ws.lambda - solver.lambda()).cwiseAbs().maxCoeff(), 1e-3 * scale);
 }
 
-// soft rows (ConstraintRow::softness) keep their softness in the perturbed solves: the same
-// as a full solve of the moved step with the same soft rows
+// soft rows (ConstraintRow::softness and ::compliance) keep their softness in the perturbed
+// solves: the same as a full solve of the moved step with the same soft rows
 TEST(ConstraintSnapshotTest, SoftRowsStaySoftUnderPerturbation) {
-  auto soften = [](Step& step) { step.set.SetSoftness(3, 2, 1.5); };  // point 1's lateral rows
+  auto soften = [](Step& step) {
+    step.set.SetSoftness(3, 2, 1.5);      // point 1's lateral rows
+    step.set.SetCompliance(6, 2, 2e-3);   // point 2's lateral rows: a 500 N/m spring
+  };
   Step step;
   step.Build(CapturedPose(), CapturedPose());
   soften(step);

@@ -384,6 +384,14 @@ TEST_F(SteeringSimulationTest, AnchorsHoldTheirNodesAndAreChecked) {
   EXPECT_NE(message(negative).find("inverse.friction_coefficient must be in [0, 2]"),
             std::string::npos)
       << message(negative);
+  InverseModelConfig pulling = model_;
+  pulling.lateral_compliance = -1e-3;
+  EXPECT_NE(message(pulling).find("inverse.lateral_compliance must be in [0, 1]"), std::string::npos)
+      << message(pulling);
+  InverseModelConfig loose = model_;
+  loose.tip_compliance = 2.0;
+  EXPECT_NE(message(loose).find("inverse.tip_compliance must be in [0, 1]"), std::string::npos)
+      << message(loose);
 }
 
 // markers of a liver breathing along z (SI, 5 mm) and y (AP, 1.5 mm), period 4 s (200 steps)
