@@ -7,22 +7,23 @@
 // to the mesh: a point load in 3D has no converged discrete compliance (it grows like 1 / the
 // element size).
 //
-//   point_compliance SCENARIO.yaml [--patient-mesh M.msh ...] [--step 0.0025]
+//   point_compliance --config SCENARIO.yaml [--patient-meshes A.msh,B.msh] [--step 0.0025]
 //
 // For every depth s (m, from the planned entry towards the target and 5 mm past it) inside
 // each liver, prints w along the two lateral directions and the axial one: the patient's liver
 // (the scenario's mesh, its diaphragm box prescribed and its anchor boxes fixed) and every
-// --patient-mesh with the same boxes; the controller's model (inverse.mesh, free but for the
+// mesh of --patient-meshes with the same boxes; the controller's model (inverse.mesh, free but for the
 // markers) as w and as the compliance left once the five markers are held (the Schur
 // complement of the marker rows, as in the model's step). Then the mean of each over the
 // depths that all meshes share.
-#include <CLI/CLI.hpp>
 #include <Eigen/Dense>
 #include <cstdio>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "common/core/cli.h"
 #include "common/core/error.h"
 #include "common/fem/fem_model.h"
 #include "common/fem/fem_solver.h"
@@ -103,15 +104,20 @@ Column Probe(const std::string& name, const FemModel& model, const SharedScenari
 }
 
 int Run(int argc, char** argv) {
-  CLI::App app{"Compliance of needle points along the planned path, patient and model livers"};
-  std::string scenario;
+  CommandLine cli("point_compliance --config SCENARIO.yaml [--patient-meshes A.msh,B.msh] [--step S]",
+                  "Compliance of needle points along the planned path, patient and model livers");
+  cli.Option("config", "SCENARIO", "scenario YAML", "", true)
+      .Option("patient-meshes", "A.msh,B.msh", "more patient liver meshes (the scenario's boxes)")
+      .Number("step", "S", "depth step (m)", "0.0025", 1e-4, 0.02);
+  if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
+  const std::string scenario = cli.GetString("config");
   std::vector<std::string> extra;
-  double step = 0.0025;
-  app.add_option("scenario", scenario, "scenario YAML")->required()->check(CLI::ExistingFile);
-  app.add_option("--patient-mesh", extra, "more patient liver meshes (the scenario's boxes)")
-      ->check(CLI::ExistingFile);
-  app.add_option("--step", step, "depth step (m)")->check(CLI::Range(1e-4, 0.02));
-  CLI11_PARSE(app, argc, argv);
+  if (cli.Has("patient-meshes")) {
+    std::stringstream list(cli.GetString("patient-meshes"));
+    for (std::string path; std::getline(list, path, ',');)
+      if (!path.empty()) extra.push_back(path);
+  }
+  const double step = cli.GetDouble("step");
 
   const DirectScenario direct = LoadDirectScenario(scenario);
   const InverseScenario inverse = LoadInverseScenario(scenario);
@@ -121,7 +127,15 @@ int Run(int argc, char** argv) {
     columns.push_back(Probe(name, scene.liver(), direct.shared, step, false));
   };
   patient("patient " + direct.liver_mesh_path, direct.liver_mesh);
-  for (const std::string& path : extra) patient("patient " + path, ReadGmshMesh(path));
+  for (const std::string& path : extra) {
+    TetMesh mesh;
+    try {
+      mesh = ReadGmshMesh(path);
+    } catch (const InputError& e) {
+      throw InputError(Str("--patient-meshes: ", e.what()));
+    }
+    patient("patient " + path, mesh);
+  }
   FemConfig model_config = inverse.loop.model.liver;
   model_config.young_modulus *= inverse.loop.model.young_modulus_factor;
   const FemModel model(ReadGmshMesh(inverse.mesh_path), model_config);
@@ -175,8 +189,11 @@ int Run(int argc, char** argv) {
 int main(int argc, char** argv) {
   try {
     return nsim::Run(argc, argv);
-  } catch (const std::exception& e) {
+  } catch (const nsim::InputError& e) {
     std::cerr << "point_compliance: " << e.what() << "\n";
     return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "point_compliance: " << e.what() << "\n";
+    return 1;
   }
 }
