@@ -64,6 +64,12 @@ FemBoundary MakeModelBoundary(const InverseModelConfig& config, const TetMesh& m
 
 }  // namespace
 
+std::unique_ptr<FemModel> MakeModelLiver(const InverseModelConfig& config, const TetMesh& mesh) {
+  FemConfig fem = config.liver;
+  fem.young_modulus = config.liver.young_modulus * config.young_modulus_factor;
+  return std::make_unique<FemModel>(mesh, fem, MakeModelBoundary(config, mesh));
+}
+
 SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
                                        const SteeringPathConfig& path, const TetMesh& mesh,
                                        const Eigen::Isometry3d& X_WF)
@@ -72,9 +78,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   if (!IsRigidTransform(X_WF, 1e-6)) {
     throw InputError("inverse simulation: the initial flange pose must be a finite rigid transform");
   }
-  FemConfig fem = config.liver;
-  fem.young_modulus = config.liver.young_modulus * config.young_modulus_factor;
-  model_ = std::make_unique<FemModel>(mesh_, fem, MakeModelBoundary(config, mesh_));
+  model_ = MakeModelLiver(config, mesh_);
   solver_ = std::make_unique<FemSolver>(*model_);
   state_ = std::make_unique<FemState>(*model_);
   body_ = std::make_unique<FemConstraintBody>(

@@ -118,6 +118,11 @@ struct SteeringStepReport {
   bool bevel_active = false;  ///< a bevel load acted over the step
 };
 
+/// The controller's liver: `mesh` with config.liver's material, E scaled by
+/// young_modulus_factor, and the nodes inside inverse.anchors fixed (InputError for a box that
+/// holds no node or a marker). Config must be valid.
+std::unique_ptr<FemModel> MakeModelLiver(const InverseModelConfig& config, const TetMesh& mesh);
+
 class SteeringSimulation {
  public:
   /// Builds the model (InputError: bad config, a marker or the target outside the mesh).

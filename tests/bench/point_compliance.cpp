@@ -12,10 +12,11 @@
 // For every depth s (m, from the planned entry towards the target and 5 mm past it) inside
 // each liver, prints w along the two lateral directions and the axial one: the patient's liver
 // (the scenario's mesh, its diaphragm box prescribed and its anchor boxes fixed) and every
-// mesh of --patient-meshes with the same boxes; the controller's model (inverse.mesh, free but for the
-// markers) as w and as the compliance left once the five markers are held (the Schur
-// complement of the marker rows, as in the model's step). Then the mean of each over the
-// depths that all meshes share.
+// mesh of --patient-meshes with the same boxes; the controller's model (inverse.mesh, built
+// as the controller builds it: MakeModelLiver, free but for inverse.anchors and the markers)
+// as w and as the compliance left once the markers are held (the Schur complement of the
+// marker rows, as in the model's step). Then the mean of each over the depths that all
+// meshes share.
 #include <Eigen/Dense>
 #include <cstdio>
 #include <iostream>
@@ -30,6 +31,7 @@
 #include "common/mesh/gmsh_reader.h"
 #include "common/mesh/point_locator.h"
 #include "common/scene/patient_scene.h"
+#include "common/steering/steering_simulation.h"
 #include "direct_sim/scenario_loader.h"
 #include "inverse_sim/scenario_loader.h"
 
@@ -136,10 +138,9 @@ int Run(int argc, char** argv) {
     }
     patient("patient " + path, mesh);
   }
-  FemConfig model_config = inverse.loop.model.liver;
-  model_config.young_modulus *= inverse.loop.model.young_modulus_factor;
-  const FemModel model(ReadGmshMesh(inverse.mesh_path), model_config);
-  columns.push_back(Probe("model " + inverse.mesh_path, model, inverse.shared, step, true));
+  const TetMesh model_mesh = ReadGmshMesh(inverse.mesh_path);
+  const std::unique_ptr<FemModel> model = MakeModelLiver(inverse.loop.model, model_mesh);
+  columns.push_back(Probe("model " + inverse.mesh_path, *model, inverse.shared, step, true));
 
   std::printf("# lateral compliance h^2 d^T H A_0^-1 H^T d of a needle point (1e-3 m/N): lateral 1 / 2 (/ "
               "markers held, model)\n");
