@@ -52,8 +52,17 @@ struct FemConfig {
   /// operator to cg_relative_tolerance); only the preconditioner's round-off changes. The
   /// constraint compliance (FemInverse) always uses the double factors. false: double.
   bool single_precision_preconditioner = true;
-  /// Relative residual ||b - A dv||_2 / ||b||_2 the conjugate gradient must reach (-).
-  double cg_relative_tolerance = 1e-6;
+  /// Relative residual ||b - A dv||_2 / ||b||_2 the conjugate gradient must reach (-). 1e-4:
+  /// the solver's share of the error stays far below what the runs measure. Measured on the
+  /// default closed loop (2656-node patient, 2001-node model, seed 1, 20 s, lockstep), against
+  /// 1e-6: the true target and the needle tip differ by at most 0.11 / 0.15 um over the run
+  /// (1e-5: 0.007 um, 1e-3: 0.7 um), the final error by 4e-5 mm; the PCG needs 2.2 iterations a
+  /// step instead of 3.1, and the patient liver's factor is refreshed 23 times instead of 111
+  /// (fewer steps exceed refactor_iteration_threshold). fem_background_refresh_test bounds the
+  /// breathing liver's drift from the direct solver at this tolerance (below 1 um; 1.6e-8 m
+  /// measured). Conservation is kept to the tolerance: fem_body_test's frictionless block gains
+  /// 1.2e-5 m/s of sideways speed in 3 s at 1e-4, below 1e-6 at 1e-6 (which those tests ask for).
+  double cg_relative_tolerance = 1e-4;
   /// When the conjugate gradient has not converged after this many iterations, the current A is
   /// factorized and solved directly (the solve is never truncated).
   int cg_max_iterations = 100;

@@ -55,7 +55,7 @@ const Liver& GetLiver() {
 }
 
 FemConfig LiverConfig() {
-  FemConfig config;  // liver defaults: E 5.5 kPa, nu 0.45, 1060 kg/m^3, h 20 ms, PCG 1e-6
+  FemConfig config;  // liver defaults: E 5.5 kPa, nu 0.45, 1060 kg/m^3, h 20 ms, PCG 1e-4
   config.rayleigh_mass = 0.1;
   config.rayleigh_stiffness = 0.01;
   config.background_refactor = true;
@@ -182,13 +182,18 @@ TEST(FemBackgroundRefreshTest, AgreesWithInStepRefreshAndDirectSolver) {
   EXPECT_EQ(delay1.in_step_factorizations, 0);
   EXPECT_EQ(delay1.swaps, in_step.in_step_factorizations);
   EXPECT_GT(background.swaps, 0);
-  // every solve is converged to 1e-6 (checked in LiverRun::Step): the trajectories stay within
-  // the solver tolerance times the motion of each other and of the direct solver, whichever
-  // factor preconditions a step (measured: ~2e-8 relative, the same for both refreshes)
+  // every solve is converged to the default tolerance (checked in LiverRun::Step): the
+  // trajectories stay within the solver tolerance times the motion of each other and of the
+  // direct solver, whichever factor preconditions a step (measured at 1e-4: 1.6e-8 m against
+  // the direct solver, 2.4e-6 of the tolerance times the 6.8 mm motion; at 1e-6: ~2e-8 relative)
   const double tolerance = LiverConfig().cg_relative_tolerance;
   EXPECT_LT(max_background, tolerance * motion);
   EXPECT_LT(max_in_step, tolerance * motion);
   EXPECT_LT(max_vs_in_step, tolerance * motion);
+  // the error budget the default tolerance is chosen for (FemConfig::cg_relative_tolerance):
+  // the solver's share of any node's position is far below a micrometre
+  EXPECT_LT(max_background, 1e-6);
+  EXPECT_LT(max_in_step, 1e-6);
 }
 
 // a PCG that hits cg_max_iterations falls back to a factor of this step on this thread; a
@@ -212,6 +217,7 @@ TEST(FemBackgroundRefreshTest, FallbackDropsTheJobInFlightDeterministically) {
     }
     if (sa.factor_swapped) {
       EXPECT_EQ(step, in_flight_until);
+      in_flight_until = -1;  // adopted: nothing in flight until the next request
     }
     if (sa.refresh_requested) in_flight_until = step + config.refactor_adopt_delay;
     ASSERT_TRUE(Identical(a, b)) << step;
