@@ -52,24 +52,18 @@ struct FemConfig {
   /// operator to cg_relative_tolerance); only the preconditioner's round-off changes. The
   /// constraint compliance (FemInverse) always uses the double factors. false: double.
   bool single_precision_preconditioner = true;
-  /// Relative residual ||b - A dv||_2 / ||b||_2 the conjugate gradient must reach (-). 1e-4:
-  /// the solver's share of the error stays far below what the runs measure. Measured on the
-  /// default closed loop (2656-node patient, 2001-node model, seed 1, 20 s, lockstep), against
-  /// 1e-6: the true target and the needle tip differ by at most 0.11 / 0.15 um over the run
-  /// (1e-5: 0.007 um, 1e-3: 0.7 um), the final error by 4e-5 mm; the PCG needs 2.2 iterations a
-  /// step instead of 3.1, and the patient liver's factor is refreshed 23 times instead of 111
-  /// (fewer steps exceed refactor_iteration_threshold). fem_background_refresh_test bounds the
-  /// breathing liver's drift from the direct solver at this tolerance (below 1 um; 1.6e-8 m
-  /// measured). Conservation is kept to the tolerance: fem_body_test's frictionless block gains
-  /// 1.2e-5 m/s of sideways speed in 3 s at 1e-4, below 1e-6 at 1e-6 (which those tests ask for).
+  /// Relative residual ||b - A dv||_2 / ||b||_2 the conjugate gradient must reach (-). 1e-4
+  /// from an error budget (docs/performance.md, "The PCG tolerance from an error budget"): on
+  /// the default closed loop the solver moves the true target and the tip by at most 0.15 um
+  /// and the final error by 4e-5 mm against 1e-6. Tests of the solver's own precision (exact
+  /// conservation, holds) set 1e-6 themselves.
   double cg_relative_tolerance = 1e-4;
   /// When the conjugate gradient has not converged after this many iterations, the current A is
   /// factorized and solved directly (the solve is never truncated).
   int cg_max_iterations = 100;
   /// A free-motion solve that needed more iterations than this refreshes the cached factor with
-  /// the current A (synchronously, or in the background thread below). 3 measured best on the
-  /// 2660-node liver (tests/bench/fem_bench.cpp): ~2.7 iterations a step, a refresh every ~30
-  /// steps; 6 gives ~4.4 iterations and no refresh, 2 refreshes every ~6 steps.
+  /// the current A (synchronously, or in the background thread below). Measured on the patient
+  /// scene and the controller's step (docs/performance.md, "When to refresh the factor").
   int refactor_iteration_threshold = 3;
   /// Refresh the cached factor in a worker thread (the second core), deterministically: a
   /// free-motion solve of step k that asks for a refresh hands this step's A to the worker, and
