@@ -57,15 +57,16 @@ Eigen::Matrix3d CalcPolarRotation(const Eigen::Matrix3d& F, bool* used_svd) {
       cof.col(0) = X.col(1).cross(X.col(2));
       cof.col(1) = X.col(2).cross(X.col(0));
       cof.col(2) = X.col(0).cross(X.col(1));
+      if (it > 0) det_x = X.col(0).dot(cof.col(0));
       // |det(gX)| = 1; near-orthogonal iterates need no scaling (saves the cube root)
       const double g = std::abs(det_x - 1.0) < 1e-2 ? 1.0 : 1.0 / std::cbrt(det_x);
       Eigen::Matrix3d next = 0.5 * (g * X + cof / (g * det_x));
       const double change = (next - X).squaredNorm();
       X = next;
-      // quadratic convergence: after a step of norm 1e-7 the new iterate is within ~1e-14 of the
-      // polar factor (this saves the one or two confirming iterations of a round-off test)
-      if (change < 1e-14) break;
-      det_x = X.determinant();
+      // X = Q (I + E), E symmetric, becomes Q (I + E^2 / 2 + O(E^3)) in a step that changes
+      // X by ||E||: after a step of norm below kPolarStepTolerance the iterate is within
+      // about kPolarStepTolerance^2 / 2 of the polar factor (E^2 / 2 plus higher orders)
+      if (change < kPolarStepTolerance * kPolarStepTolerance) break;
     }
     return X;
   }

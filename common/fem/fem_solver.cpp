@@ -199,7 +199,9 @@ struct FemSolver::Impl {
           if (offset < 0) continue;
           Eigen::Matrix3d block = lame.lambda * rg.col(an) * rg.col(bn).transpose() +
                                   lame.mu * rg.col(bn) * rg.col(an).transpose();
-          block.diagonal().array() += lame.mu * rest.grad_n.col(an).dot(rest.grad_n.col(bn));
+          // r_a . r_b = g_a . g_b for an orthogonal R; with r it is Multiply's operator exactly
+          // for the polar factor's stated precision too (kPolarStepTolerance)
+          block.diagonal().array() += lame.mu * rg.col(an).dot(rg.col(bn));
           for (int c = 0; c < 3; ++c) {
             double* column = values + outer[3 * fb + c] + offset;
             for (int rr = 0; rr < 3; ++rr) column[rr] += scale * block(rr, c);
