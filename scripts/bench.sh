@@ -14,7 +14,9 @@
 #   --filter REGEX    only benchmarks matching REGEX (Google Benchmark --benchmark_filter);
 #                     the floor and naive baselines are always run for the sizes selected
 #   --baseline DIR    a second build directory (e.g. of the previous release): its bench/
-#                     binaries run the same benchmarks, in the same session, as another column
+#                     binaries run the same benchmarks, in the same session, as another column;
+#                     each benchmark runs in the current build and then at once in the baseline
+#                     (interleaved, so that a machine's drift over the run cancels in the ratio)
 #   --cpu C           the core everything runs on (taskset -c C; default 1)
 #   --two-cores LIST  also run the step-sequence benchmarks (*Sequence*) on these cores (default
 #                     0,1): the background factor refresh needs a second core to be off the
@@ -47,7 +49,7 @@ while [ $# -gt 0 ]; do
     --out) out="$2"; shift 2 ;;
     --no-build) do_build=0; shift ;;
     --readme) readme="$root/README.md"; shift ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
     *) echo "bench.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -92,32 +94,69 @@ export NSIM_LARGE_MESH_DIR="$large_dir"
 always='Solve/2660$|LiverStepRefactorEveryStep/2660$'
 selection="${filter:+($filter)|$always}"
 
+# the benchmarks of <binary> in the selection <filter>, one a line ([sequences-only]: only the
+# step sequences)
+list_tests() {
+  local bin="$1" sel="$2" only_sequences="${3:-}" names
+  names="$("$bin" --benchmark_list_tests=true ${sel:+"--benchmark_filter=$sel"} 2>/dev/null ||
+    true)"
+  [ -n "$only_sequences" ] && names="$(grep Sequence <<<"$names" || true)"
+  printf '%s' "$names"
+}
+
+# run_binary <label> <binary> <cpus> <filter> <output stem>: one invocation, reps repetitions
+run_binary() {
+  local label="$1" bin="$2" cpus="$3" sel="$4" stem="$5"
+  local args=(--benchmark_repetitions="$reps" --benchmark_report_aggregates_only=true
+              --benchmark_out="$out/raw/${label}__${stem}.json" --benchmark_out_format=json)
+  [ -n "$sel" ] && args+=(--benchmark_filter="$sel")
+  echo "== $label: $(basename "$bin") ${sel:+($sel) }on cpu $cpus" >&2
+  taskset -c "$cpus" "$bin" "${args[@]}" >&2 || echo "bench.sh: $bin failed (exit $?)" >&2
+}
+
 # run <label> <build_dir> <cpus> <filter> [sequences-only]: every binary of <build_dir>/bench
 run() {
-  local label="$1" dir="$2" cpus="$3" sel="$4" only_sequences="${5:-}" bin name names bin_sel
+  local label="$1" dir="$2" cpus="$3" sel="$4" only_sequences="${5:-}" bin names bin_sel
   for bin in "$dir"/bench/*_bench; do
     [ -x "$bin" ] || continue
-    name="$(basename "$bin")"
-    # the benchmarks of this binary in the selection (skip the binary if none)
-    names="$("$bin" --benchmark_list_tests=true ${sel:+"--benchmark_filter=$sel"} 2>/dev/null ||
-      true)"
-    [ -n "$only_sequences" ] && names="$(grep Sequence <<<"$names" || true)"
+    names="$(list_tests "$bin" "$sel" "$only_sequences")"
     [ -n "$names" ] || continue
     bin_sel="$sel"
     [ -n "$only_sequences" ] && bin_sel="^($(paste -sd'|' <<<"$names"))\$"
-    local args=(--benchmark_repetitions="$reps" --benchmark_report_aggregates_only=true
-                --benchmark_out="$out/raw/${label}__${name}.json" --benchmark_out_format=json)
-    [ -n "$bin_sel" ] && args+=(--benchmark_filter="$bin_sel")
-    echo "== $label: $name on cpu $cpus" >&2
-    taskset -c "$cpus" "$bin" "${args[@]}" >&2 || echo "bench.sh: $name failed (exit $?)" >&2
+    run_binary "$label" "$bin" "$cpus" "$bin_sel" "$(basename "$bin")"
   done
 }
 
-run current "$build" "$cpu" "$selection"
-[ -n "$baseline" ] && run baseline "$baseline" "$cpu" "$selection"
-if [ "$two_cores" != none ]; then
-  run current-2cores "$build" "$two_cores" "$filter" sequences
-  [ -n "$baseline" ] && run baseline-2cores "$baseline" "$two_cores" "$filter" sequences
+# run_interleaved <suffix> <cpus> <filter> [sequences-only]: each benchmark of the current build,
+# then the same benchmark of the baseline build, one after the other, so that the two columns
+# are measured seconds apart (a machine whose speed drifts over the run drifts both alike)
+run_interleaved() {
+  local suffix="$1" cpus="$2" sel="$3" only_sequences="${4:-}" bin name test base_names i
+  for bin in "$build"/bench/*_bench; do
+    [ -x "$bin" ] || continue
+    name="$(basename "$bin")"
+    base_names=""
+    [ -x "$baseline/bench/$name" ] &&
+      base_names="$(list_tests "$baseline/bench/$name" "$sel" "$only_sequences")"
+    i=0
+    while IFS= read -r test; do
+      [ -n "$test" ] || continue
+      i=$((i + 1))
+      # the name as a regular expression matching only itself
+      local exact="^$(sed 's/[][\\.^$*+?(){}|]/\\&/g' <<<"$test")\$"
+      run_binary "current$suffix" "$bin" "$cpus" "$exact" "${name}__$i"
+      grep -qxF "$test" <<<"$base_names" &&
+        run_binary "baseline$suffix" "$baseline/bench/$name" "$cpus" "$exact" "${name}__$i"
+    done <<<"$(list_tests "$bin" "$sel" "$only_sequences")"
+  done
+}
+
+if [ -n "$baseline" ]; then
+  run_interleaved "" "$cpu" "$selection"
+  [ "$two_cores" != none ] && run_interleaved -2cores "$two_cores" "$filter" sequences
+else
+  run current "$build" "$cpu" "$selection"
+  [ "$two_cores" != none ] && run current-2cores "$build" "$two_cores" "$filter" sequences
 fi
 
 "$python" "$root/scripts/bench_report.py" --cpu "$cpu" --two-cores "$two_cores" \

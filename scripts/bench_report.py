@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Merges the Google Benchmark JSON files of scripts/bench.sh (OUT/raw/<label>__<binary>.json)
+"""Merges the Google Benchmark JSON files of scripts/bench.sh (OUT/raw/<label>__<binary>[__k].json)
 into OUT/bench.json and writes OUT/bench.md: per benchmark the median over the repetitions of
 the time per iteration (wall) and, for step-sequence benchmarks, of the per-step p50/p99/max
 counters, beside the baselines of the same run: the floor (one CHOLMOD solve, Solve/<size>) and
@@ -30,7 +30,9 @@ def clean_name(run_name):
 def load(out):
     runs = []
     for path in sorted(glob.glob(os.path.join(out, "raw", "*.json"))):
-        label, binary = os.path.basename(path)[:-len(".json")].split("__", 1)
+        # <label>__<binary>.json, or <label>__<binary>__<k>.json for one benchmark of an
+        # interleaved run (--baseline)
+        label, binary = os.path.basename(path)[:-len(".json")].split("__")[:2]
         try:
             with open(path) as f:
                 data = json.load(f)

@@ -124,6 +124,25 @@ def main():
                         "--two-cores", "none", "--build", none, out], check=True)
         check(f"`{none}` (?)" in open(os.path.join(out, "bench.md")).read(), "no cache: unknown")
 
+    with tempfile.TemporaryDirectory() as out:  # an interleaved run: a file per benchmark
+        os.makedirs(os.path.join(out, "raw"))
+        files = {"current__fem_bench__1": bench("LiverStep/2660", [9.0, 8.0, 10.0]),
+                 "baseline__fem_bench__1": bench("LiverStep/2660", [12.0, 20.0, 11.0]),
+                 "current__fem_bench__2": bench("Solve/2660", [1.0]),
+                 "baseline__fem_bench__2": bench("Solve/2660", [2.0])}
+        for stem, entries in files.items():
+            with open(os.path.join(out, "raw", stem + ".json"), "w") as f:
+                json.dump({"context": {}, "benchmarks": entries}, f)
+        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                        "--two-cores", "none", "--baseline", out, out], check=True)
+        md = open(os.path.join(out, "bench.md")).read()
+        step = [l for l in md.splitlines() if l.startswith("| `LiverStep/2660` |")]
+        # median 9 against the baseline's median 12, binary named without the benchmark's index
+        check(step and "| fem_bench | 9 ms |" in step[0] and "| 12 ms |" in step[0] and
+              "0.75x" in step[0], f"interleaved baseline row {step}")
+        solve = [l for l in md.splitlines() if l.startswith("| `Solve/2660` |")]
+        check(solve and "0.5x" in solve[0], f"the second benchmark's baseline {solve}")
+
     for f in failures:
         print("FAILED:", f)
     print("bench_report_test:", "ok" if not failures else f"{len(failures)} failures")
