@@ -37,6 +37,9 @@ struct FemSolver::Impl {
   std::vector<Eigen::Matrix3d> rotations;     // element rotations of the current step
   std::vector<Matrix34d> rotated_grad;        // R_e grad_n of the current step (1/m)
   std::vector<Eigen::Matrix3d> nodal_rotations;  // current, per free node
+  // per entry j of the model's node-tet lists: tet j's volume over the summed volume of its
+  // free node's tets (the weights of the nodal average, flat: no rest shape read per step)
+  std::vector<double> node_tet_weights;
   std::vector<Eigen::Matrix3d> reference_rotations;  // nodal rotations the active factor was made at
   std::vector<Eigen::Matrix3d> warp;  // Q = current * reference^T, per free node
   bool factor_is_current = false;     // active factor is this step's A (Q = I)
@@ -97,6 +100,18 @@ struct FemSolver::Impl {
     rotated_grad.resize(model.num_tets());
     for (int e = 0; e < model.num_tets(); ++e) rotated_grad[e] = model.get_rest_shapes()[e].grad_n;
     nodal_rotations.assign(num_free, Eigen::Matrix3d::Identity());
+    {
+      const auto& offsets = model.get_node_tet_offsets();
+      const auto& node_tets = model.get_node_tets();
+      node_tet_weights.assign(node_tets.size(), 0.0);
+      for (int k = 0; k < num_free; ++k) {
+        double volume = 0.0;
+        for (int j = offsets[k]; j < offsets[k + 1]; ++j)
+          volume += model.get_rest_shapes()[node_tets[j]].volume;
+        for (int j = offsets[k]; j < offsets[k + 1]; ++j)
+          node_tet_weights[j] = model.get_rest_shapes()[node_tets[j]].volume / volume;
+      }
+    }
     reference_rotations = nodal_rotations;
     warp = nodal_rotations;
     full_in = Eigen::Matrix3Xd::Zero(3, n);
@@ -312,14 +327,11 @@ struct FemSolver::Impl {
     const auto& offsets = model.get_node_tet_offsets();
     const auto& node_tets = model.get_node_tets();
     for (int k = 0; k < num_free; ++k) {
-      Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
-      double volume = 0.0;
-      for (int j = offsets[k]; j < offsets[k + 1]; ++j) {
-        const double v = model.get_rest_shapes()[node_tets[j]].volume;
-        sum += v * rotations[node_tets[j]];
-        volume += v;
-      }
-      nodal_rotations[k] = CalcPolarRotation(sum / volume);
+      // the volume-weighted mean of the node's element rotations, and its polar factor
+      Eigen::Matrix3d mean = Eigen::Matrix3d::Zero();
+      for (int j = offsets[k]; j < offsets[k + 1]; ++j)
+        mean += node_tet_weights[j] * rotations[node_tets[j]];
+      nodal_rotations[k] = CalcPolarRotation(mean);
       warp[k] = nodal_rotations[k] * reference_rotations[k].transpose();
     }
   }
