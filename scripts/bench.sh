@@ -136,8 +136,9 @@ run_interleaved() {
     [ -x "$bin" ] || continue
     name="$(basename "$bin")"
     base_names=""
-    [ -x "$baseline/bench/$name" ] &&
+    if [ -x "$baseline/bench/$name" ]; then
       base_names="$(list_tests "$baseline/bench/$name" "$sel" "$only_sequences")"
+    fi
     i=0
     while IFS= read -r test; do
       [ -n "$test" ] || continue
@@ -145,18 +146,20 @@ run_interleaved() {
       # the name as a regular expression matching only itself
       local exact="^$(sed 's/[][\\.^$*+?(){}|]/\\&/g' <<<"$test")\$"
       run_binary "current$suffix" "$bin" "$cpus" "$exact" "${name}__$i"
-      grep -qxF "$test" <<<"$base_names" &&
+      # a benchmark the baseline does not have gets no baseline figure
+      if grep -qxF "$test" <<<"$base_names"; then
         run_binary "baseline$suffix" "$baseline/bench/$name" "$cpus" "$exact" "${name}__$i"
+      fi
     done <<<"$(list_tests "$bin" "$sel" "$only_sequences")"
   done
 }
 
 if [ -n "$baseline" ]; then
   run_interleaved "" "$cpu" "$selection"
-  [ "$two_cores" != none ] && run_interleaved -2cores "$two_cores" "$filter" sequences
+  if [ "$two_cores" != none ]; then run_interleaved -2cores "$two_cores" "$filter" sequences; fi
 else
   run current "$build" "$cpu" "$selection"
-  [ "$two_cores" != none ] && run current-2cores "$build" "$two_cores" "$filter" sequences
+  if [ "$two_cores" != none ]; then run current-2cores "$build" "$two_cores" "$filter" sequences; fi
 fi
 
 "$python" "$root/scripts/bench_report.py" --cpu "$cpu" --two-cores "$two_cores" \
