@@ -40,6 +40,8 @@ void FemConfig::Validate() const {
         Str("fem.refactor_iteration_threshold must be >= 1, got ", refactor_iteration_threshold));
   if (!(refactor_adopt_delay >= 1))
     throw InputError(Str("fem.refactor_adopt_delay must be >= 1 (steps), got ", refactor_adopt_delay));
+  if (!(refactor_slice >= 0.0 && refactor_slice <= 1.0))
+    throw InputError(Str("fem.refactor_slice must be in [0, 1] (s), got ", refactor_slice));
   if (!(element_threads >= 1 && element_threads <= 8))
     throw InputError(Str("fem.element_threads must be in [1, 8], got ", element_threads));
 }

@@ -94,6 +94,18 @@ struct FemConfig {
   /// refactor_adopt_delay steps: on a slow or loaded machine the refreshes of a deforming liver
   /// then follow one another every delay + 1 steps and each adoption stalls its step.
   FactorAdoption refactor_adoption = FactorAdoption::kScheduled;
+  /// Seconds (>= 0) each step gives a background refresh in flight when the process may run on
+  /// one CPU only (its affinity mask when the solver is made: `taskset -c 0`, a one-CPU
+  /// cpuset): the step waits at its end until the worker is done or this time has passed. The
+  /// worker runs at the lowest priority, so on one CPU it otherwise gets the core only when
+  /// the steps leave it idle, and an adoption then waits for the whole factorization (30-60 ms
+  /// at 2660 nodes) in one step. With a slice s a factorization of T seconds spreads over about
+  /// T / s steps, each at most s longer; which factor preconditions which step does not change
+  /// (the adoption is as refactor_adoption says), so neither do the results. Pair it with
+  /// refactor_adoption: when_ready, or a refactor_adopt_delay of at least T / s, else the
+  /// adopting step still waits for the rest. Ignored with two CPUs or more (the worker then
+  /// runs beside the step) and without background_refactor. 0 (the default): never.
+  double refactor_slice = 0.0;
   /// Threads of the element passes (the elastic forces and rotations of each step, and the
   /// matrix-free products of the conjugate gradient), 1-8: the tets are split into this many
   /// fixed, contiguous parts, part 0 on the calling thread and the others on helper threads

@@ -1,5 +1,6 @@
 #include "common/fem/fem_solver.h"
 
+#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -65,10 +66,12 @@ struct FemSolver::Impl {
   // needed; FactorAdoption::kWhenReady: at the first step from adopt_step on at which the
   // worker is done, never waiting). Ownership: background_matrix and spare belong to the
   // worker from the request until job_done is seen under the mutex; background_rotations only
-  // to this thread.
+  // to this thread. The worker assembles the request's A from background_grad (its copy of
+  // rotated_grad), so that the requesting step only copies the rotated gradients.
   std::unique_ptr<CholmodFactor> spare;
   std::unique_ptr<SinglePrecisionFactor> spare_single;  // its copy, made by the worker
   Eigen::SparseMatrix<double> background_matrix;
+  std::vector<Matrix34d> background_grad;
   std::vector<Eigen::Matrix3d> background_rotations;
   std::thread worker;
   std::mutex mutex;
@@ -81,6 +84,9 @@ struct FemSolver::Impl {
   std::int64_t adopt_step = -1;  // step at which the job in flight is adopted; -1: none
   std::atomic<int> factorizations{0};
   std::uint64_t factor_version = 0;  // bumped when `active` is replaced or refactorized
+  // the process may run on one CPU only (its affinity mask when the solver was made): the
+  // worker then gets the core only while a step waits (FemConfig::refactor_slice)
+  bool single_cpu = false;
 
   explicit Impl(const FemModel& m)
       : model(m),
@@ -132,7 +138,7 @@ struct FemSolver::Impl {
     // as the first cached factor, which refreshes then overwrite
     rest = std::make_unique<CholmodFactor>();
     rest->Analyze(matrix);
-    Assemble(matrix);
+    Assemble(rotated_grad, matrix);
     NSIM_CHECK(rest->Factorize(matrix), "rest system matrix is not positive definite");
     ++factorizations;
     active = std::make_unique<CholmodFactor>();
@@ -150,7 +156,11 @@ struct FemSolver::Impl {
       spare->Analyze(matrix);
       if (single) spare_single = std::make_unique<SinglePrecisionFactor>();
       background_matrix = matrix;
+      background_grad = rotated_grad;
       background_rotations = nodal_rotations;
+      cpu_set_t cpus;
+      CPU_ZERO(&cpus);
+      single_cpu = sched_getaffinity(0, sizeof(cpus), &cpus) == 0 && CPU_COUNT(&cpus) == 1;
       worker = std::thread([this] { WorkerLoop(); });
     }
   }
@@ -182,7 +192,8 @@ struct FemSolver::Impl {
       const std::chrono::microseconds delay = worker_delay;
       lock.unlock();
       if (delay.count() > 0) std::this_thread::sleep_for(delay);
-      // background_matrix and spare are owned by the worker until job_done is set
+      // background_grad, background_matrix and spare are owned by the worker until job_done
+      Assemble(background_grad, background_matrix);
       const bool ok = spare->Factorize(background_matrix);
       if (ok && spare_single) spare_single->Assign(spare->supernodal_view());
       ++factorizations;
@@ -193,8 +204,10 @@ struct FemSolver::Impl {
     }
   }
 
-  // A_ff = (1 + h alpha) M + (h beta + h^2) sum_e R_e K_e R_e^T into `target`'s values
-  void Assemble(Eigen::SparseMatrix<double>& target) const {
+  // A_ff = (1 + h alpha) M + (h beta + h^2) sum_e R_e K_e R_e^T into `target`'s values, from
+  // the rotated gradients `grads` (R_e grad_n per element); reads only what never changes
+  // after construction besides its arguments, so the worker may run it
+  void Assemble(const std::vector<Matrix34d>& grads, Eigen::SparseMatrix<double>& target) const {
     double* values = target.valuePtr();
     const int* outer = target.outerIndexPtr();
     std::fill(values, values + target.nonZeros(), 0.0);
@@ -204,7 +217,7 @@ struct FemSolver::Impl {
     const auto& offsets = model.get_block_offsets();
     for (int e = 0; e < model.num_tets(); ++e) {
       const TetRestShape& rest = model.get_rest_shapes()[e];
-      const Matrix34d& rg = rotated_grad[e];
+      const Matrix34d& rg = grads[e];
       const double scale = stiffness_scale * rest.volume;
       for (int bn = 0; bn < 4; ++bn) {
         const int fb = model.get_free_index(tets[e][bn]);
@@ -338,7 +351,7 @@ struct FemSolver::Impl {
 
   // factorize this step's A on this thread; the factor becomes exact for this step
   void RefactorizeNow() {
-    Assemble(matrix);
+    Assemble(rotated_grad, matrix);
     NSIM_CHECK(active->Factorize(matrix), "system matrix is not positive definite");
     if (active_single) active_single->Assign(active->supernodal_view());
     ++factorizations;
@@ -381,6 +394,18 @@ struct FemSolver::Impl {
     return true;
   }
 
+  // on one CPU, the core for the refresh in flight (FemConfig::refactor_slice): waits until the
+  // worker is done or the slice has passed; returns the seconds waited (0 when nothing waits)
+  double GiveSliceToWorker() {
+    if (!single_cpu || !(config.refactor_slice > 0.0) || adopt_step < 0) return 0.0;
+    const auto start = std::chrono::steady_clock::now();
+    std::unique_lock<std::mutex> lock(mutex);
+    if (job_done) return 0.0;
+    wake.wait_for(lock, std::chrono::duration<double>(config.refactor_slice),
+                  [this] { return job_done; });
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
   // drops the job in flight (waiting for the worker): a factor of this step replaces the old one
   void DiscardBackgroundFactor() {
     if (adopt_step < 0) return;
@@ -392,7 +417,7 @@ struct FemSolver::Impl {
   // false (and does nothing) while a job is in flight
   bool RequestBackgroundFactor() {
     if (adopt_step >= 0) return false;
-    Assemble(background_matrix);
+    background_grad = rotated_grad;
     background_rotations = nodal_rotations;
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -568,6 +593,7 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
         stats_.refactorized = true;
       }
     }
+    stats_.slice_wait = s.GiveSliceToWorker();
   }
 
   // free motion
@@ -675,7 +701,7 @@ void FemSolver::SetWorkerDelayForTesting(std::chrono::microseconds delay) {
 }
 
 const Eigen::SparseMatrix<double>& FemSolver::CalcSystemMatrix() {
-  impl_->Assemble(impl_->matrix);
+  impl_->Assemble(impl_->rotated_grad, impl_->matrix);
   // the assembled values no longer match a factor made from a different A; the factor itself
   // is untouched, so nothing else changes
   return impl_->matrix;

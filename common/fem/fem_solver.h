@@ -67,8 +67,11 @@
 //
 // Threading: a FemSolver belongs to one thread (plus its own background worker when
 // FemConfig::background_refactor is set on the PCG path, at the lowest priority, nice 19, so
-// that on a shared core the steps go first). The worker only factorizes (and makes the factor's
-// single-precision copy for the preconditioner). What it factorizes (A of the step that asked)
+// that on a shared core the steps go first). The worker assembles and factorizes A from the
+// rotated gradients of the step that asked (copied there), and makes the factor's
+// single-precision copy for the preconditioner; on a process confined to one CPU each step
+// with a refresh in flight waits up to FemConfig::refactor_slice for it, the only time the
+// worker then gets the core besides the steps' idle time. What it factorizes (A of the step that asked)
 // and, with FactorAdoption::kScheduled, when its factor is adopted (refactor_adopt_delay steps
 // later, at the start of BeginStep, waiting if necessary) follow from the calls alone, so
 // results do not depend on thread timing (given a BLAS that is deterministic for a fixed thread
@@ -114,6 +117,9 @@ struct FemStepStats {
   /// refactor_adopt_delay when scheduled, at least that when ready (timing-dependent).
   int adoption_lag = 0;
   bool fell_back_to_direct = false;  ///< PCG hit cg_max_iterations; solved with a fresh factor
+  /// Seconds this step waited to give a refresh in flight the only CPU (FemConfig::
+  /// refactor_slice; timing-dependent like waited_for_worker, and nothing depends on it).
+  double slice_wait = 0.0;
   int inverted_tets = 0;          ///< tets with det F <= kPolarSvdThreshold at the step's x
 };
 

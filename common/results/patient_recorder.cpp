@@ -94,6 +94,8 @@ void PatientRecorder::AddStep(const PatientLoop& loop) {
     liver_adoption_lag_ += liver.adoption_lag;
   }
   liver_waits_ += liver.waited_for_worker;
+  liver_sliced_steps_ += liver.slice_wait > 0.0;
+  liver_slice_s_ += liver.slice_wait;
   row << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ',' << (s.holding ? 1 : 0)
       << ',' << liver.cg_iterations << ',' << (liver.factor_swapped ? 1 : 0) << ','
       << (liver.waited_for_worker ? 1 : 0);
@@ -121,8 +123,8 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   j["wall_time_s"] = info.wall_time;
   j["step_time_ms"] = StatsMs(step_ms_);
   // the patient liver's solver: PCG iterations a step, the factor refreshes adopted from the
-  // background worker (how many steps after their request, how many made their step wait) and
-  // the factorizations done inside a step
+  // background worker (how many steps after their request, how many made their step wait), the
+  // factorizations done inside a step, and the slices given to the worker on one CPU
   const double steps = std::max<double>(1.0, static_cast<double>(step_ms_.size()));
   j["liver_solver"] = {
       {"refactor_adoption",
@@ -133,7 +135,12 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
       {"mean_adoption_lag_steps",
        liver_adopted_ > 0 ? json(static_cast<double>(liver_adoption_lag_) / liver_adopted_)
                           : json(nullptr)},
-      {"in_step_factorizations", liver_refactorized_}};
+      {"in_step_factorizations", liver_refactorized_},
+      // on one CPU (patient.liver.refactor_slice): the steps that gave the refresh the core
+      {"refactor_slice_s", sc.liver.refactor_slice},
+      {"sliced_steps", liver_sliced_steps_},
+      {"mean_slice_ms", liver_sliced_steps_ > 0 ? json(1e3 * liver_slice_s_ / liver_sliced_steps_)
+                                                : json(nullptr)}};
   const double rate = info.wall_time > 0 ? loop.steps() / info.wall_time : 0.0;
   const double mean_ms = Summarize(step_ms_).mean;
   j["rate_hz"] = rate;

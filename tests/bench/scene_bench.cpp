@@ -42,9 +42,10 @@ struct Fixture {
   double s = 0.0;  // tip travel along the plan (m)
 
   // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it; adopt_delay:
-  // 0 keeps the scenario's refactor_adopt_delay; the refreshes are adopted as `adoption` says
+  // 0 keeps the scenario's refactor_adopt_delay; the refreshes are adopted as `adoption` says;
+  // slice: < 0 keeps the scenario's refactor_slice (s)
   explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0,
-                   FactorAdoption adoption = FactorAdoption::kScheduled) {
+                   FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
@@ -52,6 +53,7 @@ struct Fixture {
     if (rest_compliance >= 0) scenario.scene.liver_rest_compliance = rest_compliance == 1;
     if (adopt_delay > 0) scenario.scene.liver.refactor_adopt_delay = adopt_delay;
     scenario.scene.liver.refactor_adoption = adoption;
+    if (slice >= 0.0) scenario.scene.liver.refactor_slice = slice;
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
                              scenario.insertion.approach_distance);
@@ -113,14 +115,15 @@ BENCHMARK(BM_DirectSceneStepFree)->Arg(2660)->Unit(benchmark::kMillisecond)->Ite
 // does), so that the background refresh can use the time the steps leave
 void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
                          bool paced = false, int adopt_delay = 0,
-                         FactorAdoption adoption = FactorAdoption::kScheduled) {
-  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption);
+                         FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0) {
+  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption, slice);
   while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
          f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
   StepTimes times(static_cast<size_t>(state.max_iterations));
   std::vector<double> swap_ms, request_ms;
   double swaps = 0, waits = 0, refactorizations = 0, cg = 0, steps = 0, rows = 0, lags = 0;
+  double slice_wait = 0, sliced_steps = 0;
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(f.scenario.scene.time_step));
   auto next = std::chrono::steady_clock::now();
@@ -137,6 +140,8 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
     swaps += liver.factor_swapped;
     waits += liver.waited_for_worker;
     lags += liver.adoption_lag;
+    slice_wait += liver.slice_wait;
+    sliced_steps += liver.slice_wait > 0.0;
     refactorizations += liver.refactorized;
     cg += liver.cg_iterations;
     rows += report.num_rows;
@@ -152,6 +157,10 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
   state.counters["swap_step_ms"] = StepTimes::Percentile(swap_ms, 0.5);
   state.counters["request_step_ms"] = StepTimes::Percentile(request_ms, 0.5);
   state.counters["cg_iterations"] = cg / steps;
+  // on one CPU (FemConfig::refactor_slice): the steps that gave the refresh the core, and the
+  // mean time they gave it
+  state.counters["sliced_steps"] = sliced_steps / steps;
+  state.counters["slice_ms"] = sliced_steps > 0 ? 1e3 * slice_wait / sliced_steps : 0.0;
   state.counters["rows"] = rows / steps;
   state.counters["liver_depth_mm"] = 1e3 * f.scene->GetTissueStatus(kLiverTissue).depth;
 }
@@ -185,6 +194,17 @@ void RegisterSequences() {
   benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady", [](benchmark::State& s) {
     DirectSceneSequence(s, true, true, true, 0, FactorAdoption::kWhenReady);
   })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  // the steps back to back with when_ready adoption, the scenario's refactor_slice and none:
+  // on one CPU (taskset -c N) the first spreads each refresh over the steps, the second leaves
+  // the worker only what the steps leave, little when they run back to back; on two CPUs the
+  // two are the same (the slice is not used)
+  for (bool sliced : {true, false}) {
+    const std::string name =
+        std::string("DirectSceneSequence/Background/Rest/2660/WhenReady") + (sliced ? "" : "/NoSlice");
+    benchmark::RegisterBenchmark(name.c_str(), [sliced](benchmark::State& s) {
+      DirectSceneSequence(s, true, true, false, 0, FactorAdoption::kWhenReady, sliced ? -1.0 : 0.0);
+    })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  }
 }
 
 // the physics watchdog's check of one state (patient loop, every step): bounds, kinetic

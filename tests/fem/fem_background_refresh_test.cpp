@@ -10,11 +10,13 @@
 // same way and agree with the serial pass to round-off. Nothing here is timed.
 
 #include <gtest/gtest.h>
+#include <sched.h>
 
 #include <Eigen/Core>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -274,6 +276,82 @@ TEST(FemBackgroundRefreshTest, WhenReadyNeverWaitsAndAgreesWithTheScheduledRun) 
   const double tolerance = scheduled_config.cg_relative_tolerance;
   EXPECT_LT(max_late, tolerance * motion);
   EXPECT_LT(max_never, tolerance * motion);
+}
+
+// runs fn on a thread that may use one CPU only (the first of this thread's mask), or, with
+// one_cpu false, every CPU of this thread's mask; threads it starts (the refresh worker)
+// inherit that mask
+void OnCpus(bool one_cpu, const std::function<void()>& fn) {
+  std::thread t([&] {
+    cpu_set_t mask;
+    CPU_ZERO(&mask);
+    ASSERT_EQ(sched_getaffinity(0, sizeof(mask), &mask), 0);
+    if (one_cpu) {
+      int first = 0;
+      while (!CPU_ISSET(first, &mask)) ++first;
+      CPU_ZERO(&mask);
+      CPU_SET(first, &mask);
+      ASSERT_EQ(sched_setaffinity(0, sizeof(mask), &mask), 0);
+    }
+    fn();
+  });
+  t.join();
+}
+
+// FemConfig::refactor_slice: on one CPU every step with a refresh in flight (from its request
+// to its adoption) gives the worker the core for up to the slice, and no other step waits; the
+// factors and the steps that adopt them do not change, so the run is bit-identical to one
+// without slices. With two CPUs or more the slice is not used.
+TEST(FemBackgroundRefreshTest, SlicesGiveTheWorkerTheOnlyCpuWithoutChangingTheRun) {
+  constexpr int kSliceSteps = 120;
+  const FemConfig plain_config = LiverConfig();
+  FemConfig sliced_config = LiverConfig();
+  sliced_config.refactor_slice = 0.005;
+  OnCpus(true, [&] {
+    LiverRun plain(plain_config), sliced(sliced_config), held(sliced_config);
+    // the held worker starts a job only when a step waits for it to adopt (a slice is not
+    // such a wait), so every slice in flight runs to its end: the lower bound is exact
+    held.solver->HoldWorkerForTesting(true);
+    int in_flight_until = -1, sliced_steps = 0;
+    for (int step = 0; step < kSliceSteps; ++step) {
+      plain.Step(step);
+      const FemStepStats a = sliced.Step(step);
+      const FemStepStats h = held.Step(step);
+      ASSERT_TRUE(Identical(plain, sliced)) << step;
+      ASSERT_TRUE(Identical(plain, held)) << step;
+      EXPECT_EQ(h.refresh_requested, a.refresh_requested) << step;
+      EXPECT_EQ(h.factor_swapped, a.factor_swapped) << step;
+      if (h.factor_swapped) in_flight_until = -1;
+      if (h.refresh_requested) in_flight_until = step + sliced_config.refactor_adopt_delay;
+      if (in_flight_until >= 0) {
+        EXPECT_GE(h.slice_wait, sliced_config.refactor_slice) << step;
+        ++sliced_steps;
+      } else {
+        EXPECT_EQ(h.slice_wait, 0.0) << step;
+      }
+      EXPECT_GE(a.slice_wait, 0.0);
+    }
+    std::printf("one CPU, slice %.0f ms: %d requests, %d steps with a refresh in flight, "
+                "identical to the run without slices\n",
+                1e3 * sliced_config.refactor_slice, held.requests, sliced_steps);
+    EXPECT_GT(held.requests, 0);
+    EXPECT_EQ(sliced_steps, held.requests * sliced_config.refactor_adopt_delay -
+                                (in_flight_until >= 0 ? in_flight_until - kSliceSteps : 0));
+  });
+  cpu_set_t mask;
+  ASSERT_EQ(sched_getaffinity(0, sizeof(mask), &mask), 0);
+  if (CPU_COUNT(&mask) < 2) GTEST_SKIP() << "one CPU only: the two-CPU half needs two";
+  OnCpus(false, [&] {
+    LiverRun held(sliced_config);
+    held.solver->HoldWorkerForTesting(true);
+    int requests = 0;
+    for (int step = 0; step < 40; ++step) {
+      const FemStepStats h = held.Step(step);
+      requests += h.refresh_requested;
+      EXPECT_EQ(h.slice_wait, 0.0) << step;
+    }
+    EXPECT_GT(requests, 0);
+  });
 }
 
 // ---- element passes on several threads (FemConfig::element_threads) ----

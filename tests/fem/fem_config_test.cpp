@@ -20,6 +20,7 @@ TEST(FemConfigTest, DefaultsAreValidLiver) {
   EXPECT_EQ(config.young_modulus, 5500.0);
   EXPECT_FALSE(config.background_refactor);  // in-step refresh (see fem_config.h)
   EXPECT_EQ(config.refactor_adopt_delay, 3);
+  EXPECT_EQ(config.refactor_slice, 0.0);
 }
 
 std::string ValidateMessage(const FemConfig& config) {
@@ -59,6 +60,11 @@ TEST(FemConfigTest, RejectsBadValuesWithKeyAndValue) {
   config = FemConfig{};
   config.refactor_adopt_delay = 0;
   EXPECT_EQ(ValidateMessage(config), "fem.refactor_adopt_delay must be >= 1 (steps), got 0");
+  config = FemConfig{};
+  config.refactor_slice = -0.001;
+  EXPECT_EQ(ValidateMessage(config), "fem.refactor_slice must be in [0, 1] (s), got -0.001");
+  config.refactor_slice = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(ValidateMessage(config), "fem.refactor_slice must be in [0, 1] (s), got nan");
   config = FemConfig{};
   config.gravity.x() = std::numeric_limits<double>::infinity();
   EXPECT_NE(ValidateMessage(config).find("fem.gravity must be finite"), std::string::npos);
