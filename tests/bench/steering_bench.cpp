@@ -3,15 +3,22 @@
 // step (the same simulation step without the Jacobian). Target: control step <= 1.5x plain step.
 // The *Flexible cases: the same with the model's needle a 20-element steel beam
 // (inverse.needle: flexible, E 200 GPa) instead of the kinematic rigid needle.
+// BM_ControlStepScenario: the controller as the default scenario configures it
+// (configs/scenarios/liver_breathing.yaml: the 2001-node model meshed apart from the patient's
+// liver, its solver settings, constraint compliance, path and law, 12 perturbations), the
+// needle ~3 cm into the model's liver: the "control step" goal.
 // Run single-threaded: OPENBLAS_NUM_THREADS=1 steering_bench --benchmark_repetitions=5
 // --benchmark_report_aggregates_only=true
 
 #include <benchmark/benchmark.h>
 
 #include <memory>
+#include <string>
 
+#include "common/mesh/gmsh_reader.h"
 #include "common/robot/iiwa14_ik.h"
 #include "common/steering/steering_controller.h"
+#include "inverse_sim/scenario_loader.h"
 #include "tests/steering/steering_test_scene.h"
 
 namespace nsim {
@@ -121,6 +128,44 @@ void RunSnapshotSolve(benchmark::State& state, bool contact) {
 void BM_SnapshotSolve(benchmark::State& state) { RunSnapshotSolve(state, false); }
 void BM_SnapshotSolveContact(benchmark::State& state) { RunSnapshotSolve(state, true); }
 
+// the default scenario's controller: the pose advanced along its plan from the start pose, 2 mm
+// a step, until the tip is kScenarioDepth past the entry, the markers at rest
+void BM_ControlStepScenario(benchmark::State& state) {
+  constexpr double kScenarioDepth = 0.045;  // the liver starts ~1.5 cm below the skin entry
+  const InverseScenario scenario = LoadInverseScenario(
+      std::string(NSIM_SOURCE_DIR) + "/configs/scenarios/liver_breathing.yaml");
+  const ControllerLoopConfig& loop = scenario.loop;
+  const TetMesh mesh = ReadGmshMesh(scenario.mesh_path);
+  const Eigen::Isometry3d X_WF0 = SteeringSimulation::CalcStartFlangePose(loop.model.needle, loop.path);
+  SteeringController controller(loop.model, loop.path, loop.control, mesh, X_WF0);
+  const Eigen::Vector3d dir = (loop.path.target_W - loop.path.entry_W).normalized();
+  const int steps = static_cast<int>((loop.path.approach_distance + kScenarioDepth) / kAdvance);
+  SteeringInput input;
+  input.p_WM = loop.model.markers_W;
+  input.X_WE = X_WF0;
+  TissuePhase phase = TissuePhase::kOutside;
+  for (int i = 1; i <= steps; ++i) {
+    input.X_WE.translation() = X_WF0.translation() + kAdvance * i * dir;
+    phase = controller.Update(input).model.liver_phase;
+  }
+  if (phase != TissuePhase::kInside) {
+    state.SkipWithError("the model's needle is not in its liver after the insertion");
+    return;
+  }
+  double jacobian = 0.0, simulation = 0.0;
+  int rows = 0;
+  for (auto _ : state) {
+    const SteeringOutput out = controller.Update(input);
+    jacobian += out.timings.jacobian;
+    simulation += out.timings.simulation;
+    rows = out.model.num_rows;
+  }
+  state.counters["jacobian_ms"] = 1e3 * jacobian / state.iterations();
+  state.counters["model_step_ms"] = 1e3 * simulation / state.iterations();
+  state.counters["rows"] = rows;
+  state.counters["nodes"] = mesh.num_nodes();
+}
+
 void BM_ControlStep12(benchmark::State& state) { RunControlStep(state, SteeringDof::kCartesian6); }
 void BM_ControlStep14(benchmark::State& state) { RunControlStep(state, SteeringDof::kJoint7); }
 void BM_ControlStep12Flexible(benchmark::State& state) {
@@ -129,6 +174,7 @@ void BM_ControlStep12Flexible(benchmark::State& state) {
 
 BENCHMARK(BM_PlainStep)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep12)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ControlStepScenario)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep14)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PlainStepFlexible)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep12Flexible)->Unit(benchmark::kMillisecond)->MinTime(2.0);
