@@ -52,7 +52,7 @@ TEST(ScenarioLoaderTest, LoadsTheDefaultScenario) {
   EXPECT_EQ(s.scene.needle.kind, NeedleKind::kRigid);
   EXPECT_TRUE(s.scene.liver.background_refactor);
   EXPECT_EQ(s.scene.liver.refactor_adopt_delay, 3);
-  EXPECT_EQ(s.scene.liver.refactor_slice, 0.004);
+  EXPECT_EQ(s.scene.liver.refactor_slice, 0.0);
   EXPECT_TRUE(s.scene.liver_rest_compliance);
   EXPECT_EQ(s.robot.kind, RobotKind::kCartesian);
   EXPECT_EQ(s.run.mode, RunMode::kRealtime);
@@ -76,7 +76,7 @@ TEST(ScenarioLoaderTest, BadValuesNameTheKey) {
             "scenario.yaml: patient.liver.refactor_adopt_delay must be >= 1 (steps), got 0");
   EXPECT_EQ(LoadError(Edited("refactor_adopt_delay: 3", "refactor_adopt_delay: 1.5")),
             "scenario.yaml: patient.liver.refactor_adopt_delay: expected an integer, got '1.5'");
-  EXPECT_EQ(LoadError(Edited("refactor_slice: 0.004", "refactor_slice: 5")),
+  EXPECT_EQ(LoadError(Edited("refactor_slice: 0", "refactor_slice: 5")),
             "scenario.yaml: patient.liver.refactor_slice must be in [0, 1] (s), got 5");
   EXPECT_EQ(LoadError(Edited("constraint_compliance: rest", "constraint_compliance: current")),
             "scenario.yaml: patient.constraint_compliance: expected one of rest, last_factor, got "
