@@ -61,6 +61,23 @@ void RunPlainStep(benchmark::State& state, bool flexible) {
 void BM_PlainStep(benchmark::State& state) { RunPlainStep(state, false); }
 void BM_PlainStepFlexible(benchmark::State& state) { RunPlainStep(state, true); }
 
+// the timed loop of the control-step benchmarks: the same input every iteration; the counters
+// are the Jacobian's and the model step's shares (ms) and the constraint rows
+void TimeControlSteps(benchmark::State& state, SteeringController& controller,
+                      const SteeringInput& input) {
+  double jacobian = 0.0, simulation = 0.0;
+  int rows = 0;
+  for (auto _ : state) {
+    const SteeringOutput out = controller.Update(input);
+    jacobian += out.timings.jacobian;
+    simulation += out.timings.simulation;
+    rows = out.model.num_rows;
+  }
+  state.counters["jacobian_ms"] = 1e3 * jacobian / state.iterations();
+  state.counters["model_step_ms"] = 1e3 * simulation / state.iterations();
+  state.counters["rows"] = rows;
+}
+
 void RunControlStep(benchmark::State& state, SteeringDof dof, bool flexible = false) {
   Setup s(flexible);
   SteeringControlConfig control;
@@ -80,17 +97,7 @@ void RunControlStep(benchmark::State& state, SteeringDof dof, bool flexible = fa
     }
     controller.Update(input);
   }
-  double jacobian = 0.0, simulation = 0.0;
-  int rows = 0;
-  for (auto _ : state) {
-    const SteeringOutput out = controller.Update(input);
-    jacobian += out.timings.jacobian;
-    simulation += out.timings.simulation;
-    rows = out.model.num_rows;
-  }
-  state.counters["jacobian_ms"] = 1e3 * jacobian / state.iterations();
-  state.counters["model_step_ms"] = 1e3 * simulation / state.iterations();
-  state.counters["rows"] = rows;
+  TimeControlSteps(state, controller, input);
 }
 
 // one frozen-step solve of the Jacobian (SteeringSimulation::EvaluateAt at a perturbed flange
@@ -152,17 +159,7 @@ void BM_ControlStepScenario(benchmark::State& state) {
     state.SkipWithError("the model's needle is not in its liver after the insertion");
     return;
   }
-  double jacobian = 0.0, simulation = 0.0;
-  int rows = 0;
-  for (auto _ : state) {
-    const SteeringOutput out = controller.Update(input);
-    jacobian += out.timings.jacobian;
-    simulation += out.timings.simulation;
-    rows = out.model.num_rows;
-  }
-  state.counters["jacobian_ms"] = 1e3 * jacobian / state.iterations();
-  state.counters["model_step_ms"] = 1e3 * simulation / state.iterations();
-  state.counters["rows"] = rows;
+  TimeControlSteps(state, controller, input);
   state.counters["nodes"] = mesh.num_nodes();
 }
 
