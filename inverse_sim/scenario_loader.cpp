@@ -172,7 +172,10 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   if (ctl.Read("dof", &dof)) s->loop.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
   const YamlReader p = ctl.Child("path");
   RejectKeysMovedToShared(p, "controller.path");
-  p.CheckKeys({"spacing", "switch_distance"});
+  p.CheckKeys({"spacing", "switch_distance", "advance"});
+  const int advance = p.ReadChoice("advance", {"measured", "commanded"});
+  if (advance >= 0)
+    s->loop.path.advance = advance == 0 ? PathAdvance::kMeasured : PathAdvance::kCommanded;
   p.Read("spacing", &s->loop.path.spacing);
   p.Read("switch_distance", &s->loop.path.switching.switch_distance);
   ReadFixedVector<6>(ctl, "pose_steps", &s->loop.control.pose_steps);

@@ -113,6 +113,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
               {"entry", c.control.gains.entry}}},
             {"regularization", c.control.law.regularization},
             {"compensate_in_flight", c.control.compensate_in_flight},
+            {"path_advance", c.path.advance == PathAdvance::kCommanded ? "commanded" : "measured"},
             {"measure_latency", c.measure_latency},
             {"mode", info.lockstep ? "lockstep" : "realtime"},
             {"domain", info.domain},

@@ -113,6 +113,12 @@ struct InverseModelConfig {
 /// radius, tool offset, axis) and config.liver's time step.
 BeamNeedleConfig CalcModelBeamConfig(const InverseModelConfig& config);
 
+/// Which tip position moves the path target on (SteeringPathConfig::advance).
+enum class PathAdvance {
+  kMeasured,   ///< the model's tip at the measured pose
+  kCommanded,  ///< the tip where the last command puts it (the commands in flight done)
+};
+
 /// The planned insertion: a straight line from a start point before the entry to the target.
 struct SteeringPathConfig {
   Eigen::Vector3d entry_W = Eigen::Vector3d::Zero();   ///< planned skin entry (m)
@@ -120,6 +126,14 @@ struct SteeringPathConfig {
   double approach_distance = 0.01;  ///< the tip starts this far before the entry (m), >= 0
   double spacing = 0.01;            ///< distance between consecutive path targets (m), > 0
   PathTargetConfig switching;       ///< when the tip counts as at a path point
+  /// Whose tip the switching compares with the path points. kCommanded: the model's tip moved
+  /// rigidly with the needle from the measured pose to the last commanded one (what the commands
+  /// in flight will have done), so that the target runs as far ahead of the command as
+  /// switching asks whatever the latency; kMeasured: the tip at the measured pose, which lags
+  /// the command by the loop's latency (the insertion then slows with it: v = k D / (1 + k d)).
+  /// Without a command in flight (compensate_in_flight off, the first frames) both are the same.
+  /// (YAML controller.path.advance: commanded | measured)
+  PathAdvance advance = PathAdvance::kCommanded;
 
   /// Throws InputError "controller.path.<key> ...".
   void Validate() const;

@@ -33,6 +33,7 @@ SteeringController::SteeringController(const InverseModelConfig& model,
   sim_ = std::make_unique<SteeringSimulation>(model, path, mesh, X_WE0);
   X_WN_step_ = sim_->X_WN();
   switch_distance_ = path.switching.switch_distance;
+  advance_ = path.advance;
   needle_p_FBase_ = model.needle.p_FBase;
   needle_axis_F_ = model.needle.axis_F;
   roll_free_ = !model.bevel.enabled;
@@ -123,13 +124,14 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   const SteeringEvaluation now = sim_->EvaluateAt(X_WF, workspace_);
   out.num_unconverged_solves += now.solve.converged ? 0 : 1;
   {
+    const Eigen::Vector3d p_WTip = CalcSwitchingTip(input, X_WF, now.p_WTip);
     const int last = static_cast<int>(now.p_WPath.size()) - 1;
     auto passed = [&](int i) {
       const Eigen::Vector3d along = now.p_WPath[i + 1] - now.p_WPath[i];
-      return (now.p_WTip - now.p_WPath[i]).dot(along) >= 0.0;
+      return (p_WTip - now.p_WPath[i]).dot(along) >= 0.0;
     };
     while (path_index_ < last &&
-           ((now.p_WPath[path_index_] - now.p_WTip).norm() <= switch_distance_ ||
+           ((now.p_WPath[path_index_] - p_WTip).norm() <= switch_distance_ ||
             passed(path_index_))) {
       ++path_index_;
     }
@@ -226,6 +228,22 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   out.timings.control = Seconds(t3, t4);
   out.timings.total = Seconds(t0, t4);
   return out;
+}
+
+Eigen::Vector3d SteeringController::CalcSwitchingTip(const SteeringInput& input,
+                                                    const Eigen::Isometry3d& X_WF,
+                                                    const Eigen::Vector3d& p_WTip) const {
+  if (advance_ != PathAdvance::kCommanded || !control_.compensate_in_flight) return p_WTip;
+  Eigen::Isometry3d X_WF_commanded;
+  if (control_.dof == SteeringDof::kCartesian6) {
+    if (!input.X_WE_commanded.has_value() || !IsFinitePose(*input.X_WE_commanded)) return p_WTip;
+    X_WF_commanded = *input.X_WE_commanded;
+  } else {
+    if (!input.q_commanded.has_value() || !input.q_commanded->allFinite()) return p_WTip;
+    X_WF_commanded = CalcFlangePose(*input.q_commanded);
+  }
+  // the tip carried rigidly with the flange: the along-path progress of the command
+  return X_WF_commanded * (X_WF.inverse() * p_WTip);
 }
 
 Vector7d SteeringController::LimitFlangeMotion(const Vector7d& q, const Vector7d& dq,

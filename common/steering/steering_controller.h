@@ -129,6 +129,11 @@ class SteeringController {
   /// control.law.max_translation_step and turns at most max_rotation_step to first order;
   /// *limited tells whether it was.
   Vector7d LimitFlangeMotion(const Vector7d& q, const Vector7d& dq, bool* limited) const;
+  /// The tip the path switching compares with the path points (SteeringPathConfig::advance):
+  /// p_WTip, the model's tip at the measured flange pose X_WF, or that tip moved rigidly to
+  /// the last commanded pose.
+  Eigen::Vector3d CalcSwitchingTip(const SteeringInput& input, const Eigen::Isometry3d& X_WF,
+                                   const Eigen::Vector3d& p_WTip) const;
   /// q clamped into the iiwa's limits shrunk by control.joint_limit_margin.
   Vector7d ClampWithMargin(const Vector7d& q) const;
   /// The objective vector of `phase` from one evaluation of the frozen step.
@@ -139,6 +144,7 @@ class SteeringController {
   std::unique_ptr<SteeringSimulation> sim_;
   int path_index_ = 0;
   double switch_distance_ = 0.0;  // (m)
+  PathAdvance advance_ = PathAdvance::kMeasured;
   bool entry_known_ = false;
   SkinPlane entry_plane_;
   Eigen::Vector3d p_WC_ = Eigen::Vector3d::Zero();  // current entry point (m)

@@ -182,6 +182,16 @@ TEST(InverseScenarioLoaderTest, ReadsTheAlignmentReference) {
   EXPECT_NE(bad.find("alignment"), std::string::npos) << bad;
 }
 
+TEST(InverseScenarioLoaderTest, ReadsWhoseTipAdvancesThePath) {
+  const std::string key = "    advance: commanded";
+  auto with = [&](const std::string& line) { return Edited(DefaultText(), key, line); };
+  EXPECT_EQ(Load(DefaultText()).loop.path.advance, PathAdvance::kCommanded);
+  EXPECT_EQ(Load(with("    advance: measured")).loop.path.advance, PathAdvance::kMeasured);
+  EXPECT_EQ(Load(with("")).loop.path.advance, PathAdvance::kCommanded);  // the default
+  const std::string bad = LoadError(with("    advance: ahead"));
+  EXPECT_NE(bad.find("advance"), std::string::npos) << bad;
+}
+
 TEST(InverseScenarioLoaderTest, BadNeedleValuesNameTheKey) {
   auto error = [&](const std::string& value) {
     return LoadError(Edited(DefaultText(), kInverseKey, "  needle: " + value + "\n" + kInverseKey));
