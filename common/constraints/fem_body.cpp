@@ -45,7 +45,10 @@ void FemConstraintBody::EndStep() {
 
 void FemConstraintBody::ApplyCompliance(const Eigen::SparseMatrix<double>& forces,
                                         Eigen::MatrixXd& displacements) const {
-  NSIM_CHECK(in_step_, "ApplyCompliance outside a step (call BeginStep first)");
+  // the rest factor's inverse does not depend on the step: valid at any time (columns can be
+  // computed before the first step); the other operators are the step's
+  NSIM_CHECK(in_step_ || which_ == FemInverse::kRestFactor,
+             "ApplyCompliance outside a step (call BeginStep first)");
   solver_.ApplyInverse(forces, displacements, which_);
   displacements *= h_ * h_;
 }

@@ -43,7 +43,8 @@ class FemConstraintBody : public ConstraintBody {
   int num_nodes() const override { return state_.num_nodes(); }
   const Eigen::Matrix3Xd& start_positions() const override { return state_.x; }
   const Eigen::Matrix3Xd& free_positions() const override { return state_.x_free; }
-  /// h^2 A^-1 forces; rows of Dirichlet nodes are zero. Valid between BeginStep and the commit.
+  /// h^2 A^-1 forces; rows of Dirichlet nodes are zero. Valid between BeginStep and the commit;
+  /// with kRestFactor at any time (A_0 does not change).
   void ApplyCompliance(const Eigen::SparseMatrix<double>& forces,
                        Eigen::MatrixXd& displacements) const override;
   std::uint64_t compliance_version() const override { return version_; }

@@ -98,6 +98,7 @@ struct SceneStepReport {
   int num_rib_contacts = 0;         ///< rib contact rows
   int num_active_rib_contacts = 0;  ///< of which pushing (lambda > 0)
   ConstraintSolveReport solve;      ///< constraint resolution
+  ComplianceStats compliance;       ///< the compliance columns it solved and reused
   bool bevel_active = false;        ///< the bevel load acted
 };
 
@@ -147,6 +148,7 @@ class PatientScene {
 
  private:
   int AddRibContacts(ConstraintSet& set, int liver_body);
+  void PrefetchRibCompliance();
 
   std::unique_ptr<const PatientSceneModel> model_;
   PatientSceneState state_;

@@ -154,6 +154,17 @@ TEST(FemConstraintBodyTest, RestFactorComplianceIsTheDenseRestInverse) {
     const std::uint64_t version = body.compliance_version();
     const std::uint64_t factor_at_start = fem.get_factor_version();
     Eigen::MatrixXd C;
+    // A_0 does not change: the rest compliance is valid before the first step too (the patient
+    // scene solves its rib contacts' columns then); the step's operators are not
+    {
+      body.ApplyCompliance(forces, C);
+      Eigen::MatrixXd C_f(3 * nf, 7);
+      for (int k = 0; k < nf; ++k) C_f.middleRows<3>(3 * k) = C.middleRows<3>(3 * free[k]);
+      EXPECT_LT((C_f - expected_f).norm(), 1e-10 * expected_f.norm()) << "before the first step";
+      FemState other(model);
+      const FemConstraintBody stepped(fem, other, FemInverse::kReferenceFactor);
+      EXPECT_DEATH(stepped.ApplyCompliance(forces, C), "ApplyCompliance outside a step");
+    }
     for (int step = 0; step < 40; ++step) {
       // a sideways push on the top face: the block bends, the factor is refreshed
       state.external_forces.setZero();

@@ -175,6 +175,33 @@ TEST(PatientSceneTest, InsertionWithoutControllerPuncturesTheSkinThenTheLiver) {
               liver_time, 1e3 * start_distance, 1e3 * distance);
 }
 
+// With the rest compliance the rib contacts' compliance columns are solved when the scene is
+// built, so the first step (the first one a realtime clock times) reuses them instead of
+// solving them all at once; the last compliance option solves them in the step.
+TEST(PatientSceneTest, TheRibContactsAtRestAreSolvedBeforeTheFirstStep) {
+  for (const char* mesh : {"configs/meshes/liver_700.msh", "configs/meshes/liver_2660.msh"}) {
+    for (const bool rest : {true, false}) {
+      DirectScenario s = LoadCoarseScenario();
+      s.liver_mesh = ReadGmshMesh(testing::SourcePath(mesh));
+      s.scene.liver_rest_compliance = rest;
+      SceneRig rig(s);
+      const SceneStepReport first = rig.scene->Step(rig.plan.CalcFlangePose(0));
+      ASSERT_GT(first.num_rib_contacts, 0) << mesh << ": no rib contact at the first step";
+      std::printf("%s, %s compliance: %d rib contacts, %d points reused, %d columns solved\n",
+                  mesh, rest ? "rest" : "last-factor", first.num_rib_contacts,
+                  first.compliance.num_reused_points, first.compliance.num_solved_columns);
+      if (rest) {
+        EXPECT_GE(first.compliance.num_reused_points, first.num_rib_contacts) << mesh;
+        EXPECT_EQ(first.compliance.num_solved_columns,
+                  3 * (first.compliance.num_body_points - first.compliance.num_reused_points))
+            << mesh;
+      } else {
+        EXPECT_EQ(first.compliance.num_reused_points, 0) << mesh;
+      }
+    }
+  }
+}
+
 TEST(PatientSceneTest, SameSeedSameRun) {
   DirectScenario s = LoadCoarseScenario();
   SceneRig a(s), b(s);
