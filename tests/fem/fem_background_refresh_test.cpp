@@ -238,7 +238,13 @@ TEST(FemBackgroundRefreshTest, WhenReadyNeverWaitsAndAgreesWithTheScheduledRun) 
   FemConfig ready_config = LiverConfig();
   ready_config.refactor_adoption = FactorAdoption::kWhenReady;
   LiverRun scheduled(scheduled_config), early(ready_config), late(ready_config), never(ready_config);
-  late.solver->SetWorkerDelayForTesting(milliseconds(200));  // usually late by several steps
+  // the late worker starts each job only when released, kLateBy steps after its scheduled
+  // adoption (released between steps, as a worker that finishes then would be: no step waits);
+  // a worker late by a wall-clock delay was late by a number of steps that depends on the
+  // machine's speed, and on a fast one never finished within the run
+  constexpr int kLateBy = 3;
+  late.solver->HoldWorkerForTesting(true);
+  int release_late_at = -1;
   never.solver->HoldWorkerForTesting(true);  // starts a job only when waited for: never
   std::vector<int> late_lags;
   double max_late = 0.0, max_never = 0.0;
@@ -248,6 +254,8 @@ TEST(FemBackgroundRefreshTest, WhenReadyNeverWaitsAndAgreesWithTheScheduledRun) 
     const FemStepStats e = early.Step(step);
     early.solver->WaitForBackgroundFactorization();  // done before the next step
     const FemStepStats l = late.Step(step);
+    if (l.refresh_requested) release_late_at = step + ready_config.refactor_adopt_delay + kLateBy;
+    if (step == release_late_at) late.solver->WaitForBackgroundFactorization();
     never.Step(step);
     if (e.factor_swapped) EXPECT_EQ(e.adoption_lag, ready_config.refactor_adopt_delay) << step;
     if (l.factor_swapped) late_lags.push_back(l.adoption_lag);
@@ -267,7 +275,7 @@ TEST(FemBackgroundRefreshTest, WhenReadyNeverWaitsAndAgreesWithTheScheduledRun) 
   EXPECT_EQ(early.waits + late.waits + never.waits, 0);
   EXPECT_GT(scheduled.swaps, 0);
   ASSERT_GT(late.swaps, 0);
-  for (int lag : late_lags) EXPECT_GE(lag, ready_config.refactor_adopt_delay);
+  for (int lag : late_lags) EXPECT_EQ(lag, ready_config.refactor_adopt_delay + kLateBy + 1);
   EXPECT_EQ(never.swaps, 0);
   EXPECT_EQ(never.requests, 1);  // the one job stays in flight
   EXPECT_EQ(late.in_step_factorizations + never.in_step_factorizations, 0);
