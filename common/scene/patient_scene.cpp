@@ -156,17 +156,12 @@ PatientScene::PatientScene(const PatientSceneConfig& config, const TetMesh& live
 }
 
 void PatientScene::PrefetchRibCompliance() {
-  // With the rest compliance the columns of the liver nodes in contact with the ribs never
-  // change: solve those of the nodes within the margin at rest now, before the first (timed)
-  // step, which would otherwise solve them all at once and touch the solver's buffers for the
-  // first time (77-81 ms against a 20 ms budget on the default scenario, 2026-12-04). They
-  // stay cached while the contacts last (ComplianceAssembler).
+  // With the rest compliance the columns of the liver nodes touching the ribs never change:
+  // solve those of the nodes within the margin at rest now, not in the first (timed) step. They
+  // stay cached while the contacts last (ComplianceAssembler); Step clears the set.
   if (!model_->config().liver_rest_compliance) return;
-  set_.Clear();
   const int liver_index = set_.AddBody(*liver_body_);
   if (AddRibContacts(set_, liver_index) > 0) solver_.Assemble(set_);
-  set_.Clear();
-  rib_rows_.clear();
 }
 
 PatientScene::~PatientScene() = default;
