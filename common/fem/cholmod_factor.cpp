@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include "common/core/error.h"
+#include "common/fem/supernodal_solve.h"
 
 namespace nsim {
 
@@ -14,6 +15,9 @@ struct CholmodFactor::Impl {
   cholmod_dense* y = nullptr;
   cholmod_dense* e = nullptr;
   int n = 0;
+  // the supernodal solve of several right-hand sides (supernodal_solve.h): permuted columns
+  Eigen::MatrixXd y_perm;
+  Eigen::VectorXd gathered;
 
   Impl() {
     cholmod_start(&common);
@@ -122,6 +126,17 @@ void CholmodFactor::Solve(const Eigen::Ref<const Eigen::MatrixXd>& B,
   NSIM_CHECK(B.rows() == impl_->n && X.rows() == B.rows() && X.cols() == B.cols(),
              "CholmodFactor::Solve size mismatch: n = ", impl_->n, ", B ", B.rows(), " x ",
              B.cols(), ", X ", X.rows(), " x ", X.cols());
+  if (B.cols() <= kMaxColumnsForSupernodalSolve) {
+    const SupernodalFactorView view = supernodal_view();
+    Impl& s = *impl_;
+    s.y_perm.resize(B.rows(), B.cols());
+    for (Eigen::Index c = 0; c < B.cols(); ++c)
+      for (int k = 0; k < view.n; ++k) s.y_perm(k, c) = B(view.perm[k], c);
+    SupernodalSolveInPlace(view, view.x, s.y_perm, s.gathered);
+    for (Eigen::Index c = 0; c < B.cols(); ++c)
+      for (int k = 0; k < view.n; ++k) X(view.perm[k], c) = s.y_perm(k, c);
+    return;
+  }
   cholmod_dense b{};
   b.nrow = static_cast<size_t>(B.rows());
   b.ncol = static_cast<size_t>(B.cols());

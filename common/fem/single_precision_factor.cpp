@@ -4,13 +4,9 @@
 #include <algorithm>
 
 #include "common/core/error.h"
+#include "common/fem/supernodal_solve.h"
 
 namespace nsim {
-
-namespace {
-// a supernode's nsrow x nscol block of L, column-major (its own columns' rows first)
-using BlockMap = Eigen::Map<const Eigen::MatrixXf, 0, Eigen::OuterStride<>>;
-}  // namespace
 
 void SinglePrecisionFactor::Assign(const SupernodalFactorView& view) {
   NSIM_CHECK(view.n > 0 && view.nsuper > 0 && view.super && view.pi && view.px && view.s &&
@@ -40,33 +36,14 @@ void SinglePrecisionFactor::Solve(const Eigen::Ref<const Eigen::VectorXd>& b,
   NSIM_CHECK(b.size() == n_ && x.size() == n_, "SinglePrecisionFactor::Solve size mismatch: n = ",
              n_, ", b ", b.size(), ", x ", x.size());
   for (int k = 0; k < n_; ++k) y_[k] = static_cast<float>(b[perm_[k]]);
-  const int nsuper = static_cast<int>(super_.size()) - 1;
-  // L y = P b, supernode by supernode: the triangular solve of its diagonal block, then the
-  // update of the rows below it (gathered through its row indices)
-  for (int j = 0; j < nsuper; ++j) {
-    const int k1 = super_[j], nscol = super_[j + 1] - k1;
-    const int psi = pi_[j], nsrow = pi_[j + 1] - psi, below = nsrow - nscol;
-    const BlockMap L(values_.data() + px_[j], nsrow, nscol, Eigen::OuterStride<>(nsrow));
-    auto y1 = y_.segment(k1, nscol);
-    L.topRows(nscol).triangularView<Eigen::Lower>().solveInPlace(y1);
-    if (below == 0) continue;
-    gathered_.head(below).noalias() = L.bottomRows(below) * y1;
-    const int* rows = s_.data() + psi + nscol;
-    for (int i = 0; i < below; ++i) y_[rows[i]] -= gathered_[i];
-  }
-  // L' z = y, backwards: the rows below a supernode are final when it is reached
-  for (int j = nsuper - 1; j >= 0; --j) {
-    const int k1 = super_[j], nscol = super_[j + 1] - k1;
-    const int psi = pi_[j], nsrow = pi_[j + 1] - psi, below = nsrow - nscol;
-    const BlockMap L(values_.data() + px_[j], nsrow, nscol, Eigen::OuterStride<>(nsrow));
-    auto y1 = y_.segment(k1, nscol);
-    if (below > 0) {
-      const int* rows = s_.data() + psi + nscol;
-      for (int i = 0; i < below; ++i) gathered_[i] = y_[rows[i]];
-      y1.noalias() -= L.bottomRows(below).transpose() * gathered_.head(below);
-    }
-    L.topRows(nscol).triangularView<Eigen::Lower>().transpose().solveInPlace(y1);
-  }
+  SupernodalFactorView view;
+  view.n = n_;
+  view.nsuper = static_cast<int>(super_.size()) - 1;
+  view.super = super_.data();
+  view.pi = pi_.data();
+  view.px = px_.data();
+  view.s = s_.data();
+  SupernodalSolveInPlace(view, values_.data(), y_, gathered_);
   for (int k = 0; k < n_; ++k) x[perm_[k]] = static_cast<double>(y_[k]);
 }
 

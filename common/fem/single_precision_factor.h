@@ -14,9 +14,10 @@
 // itself (constraint compliance: FemInverse) keeps the double-precision factor.
 //
 // Deterministic: Eigen's fixed-order kernels, no threads, the same bits on every run of one
-// build. The kernels are Eigen's blocked triangular solve and matrix-vector product on each
-// supernode's block; OpenBLAS's strsv / sgemv measured slower here (the call overhead of the
-// many small supernodes), and so did hand-written column loops.
+// build. The kernels (supernodal_solve.h, shared with CholmodFactor's solves of a few columns)
+// are Eigen's triangular solve and matrix-vector product on each supernode's block; OpenBLAS's
+// strsv / sgemv measured slower here (the call overhead of the many small supernodes), and so
+// did hand-written column loops.
 
 #include <Eigen/Core>
 #include <vector>

@@ -192,6 +192,35 @@ void Solve(benchmark::State& bench, int nodes, bool single_precision) {
     bench.counters["relative_difference"] = (x - reference).norm() / reference.norm();
 }
 
+// X = A^-1 B for k right-hand sides at once (CholmodFactor::Solve: CHOLMOD for one, the
+// supernodal solve of supernodal_solve.h for several), against k solves of one column each:
+// the compliance columns of the constraint points (3 per new node) are such solves
+// unit: B holds the unit columns of k / 3 nodes (a constraint point's compliance columns; the
+// nodes spread over the mesh), else random dense columns
+void SolveColumns(benchmark::State& bench, int nodes, int k, bool one_by_one, bool unit) {
+  Fixture fixture(nodes, FemLinearSolver::kDirect, false, 3, DirectWarmUp(nodes));
+  const Eigen::SparseMatrix<double> A = fixture.solver->CalcSystemMatrix();
+  CholmodFactor factor;
+  factor.Analyze(A);
+  factor.Factorize(A);
+  Eigen::MatrixXd B = Eigen::MatrixXd::Random(A.rows(), k);
+  if (unit) {
+    B.setZero();
+    for (int c = 0; c < k; ++c) B(3 * ((c / 3 + 1) * (A.rows() / 3) / (k / 3 + 1)) + c % 3, c) = 1.0;
+  }
+  Eigen::MatrixXd X(A.rows(), k);
+  for (auto _ : bench) {
+    if (one_by_one)
+      for (int c = 0; c < k; ++c) factor.Solve(B.col(c), X.col(c));
+    else
+      factor.Solve(B, X);
+    benchmark::DoNotOptimize(X.data());
+  }
+  bench.counters["residual"] = (A * X - B).norm() / B.norm();
+  bench.counters["ms_per_column"] = benchmark::Counter(
+      k, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
 // A^-1 H^T for 40 constraint rows, each on the 4 nodes of one tet (barycentric point)
 void ApplyInverse40(benchmark::State& bench, int nodes, FemInverse which) {
   Fixture fixture(nodes, FemLinearSolver::kPcgCachedFactor, false);
@@ -296,6 +325,17 @@ int main(int argc, char** argv) {
       benchmark::RegisterBenchmark(((single ? "SolveSingle/" : "Solve/") + n).c_str(),
                                    [nodes, single](benchmark::State& s) { Solve(s, nodes, single); })
           ->Unit(benchmark::kMillisecond);
+    if (!scaling_only)
+      for (int k : {1, 3, 6, 12})
+        for (bool one_by_one : {false, true})
+          for (bool unit : {false, true}) {
+            if ((k == 1 && one_by_one) || (unit && k % 3 != 0)) continue;
+            const std::string name = std::string(unit ? "SolveNodeColumns" : "SolveColumns") +
+                                     (one_by_one ? "OneByOne/" : "/") + n + "/" + std::to_string(k);
+            benchmark::RegisterBenchmark(name.c_str(), [nodes, k, one_by_one, unit](benchmark::State& s) {
+              SolveColumns(s, nodes, k, one_by_one, unit);
+            })->Unit(benchmark::kMillisecond);
+          }
     if (!scaling_only)
       benchmark::RegisterBenchmark(("ApplyInverse40CachedFactor/" + n).c_str(),
                                    [nodes](benchmark::State& s) {

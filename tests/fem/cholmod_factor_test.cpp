@@ -54,6 +54,43 @@ TEST(CholmodFactorTest, SolvesSingleAndMultipleRightHandSides) {
   EXPECT_LT((X - X_ref).norm(), 1e-10 * X_ref.norm());
 }
 
+// Solve has two paths (supernodal_solve.h up to kMaxColumnsForSupernodalSolve columns,
+// CHOLMOD's above): both agree with a dense LLT for dense, unit (a constraint point's
+// compliance: the forward solve skips the supernodes off the column's path) and zero columns,
+// and a column's solution does not depend on the other columns solved with it
+TEST(CholmodFactorTest, EveryNumberOfColumnsSolvesLikeADenseFactor) {
+  const int n = 600;
+  const Eigen::SparseMatrix<double> A = RandomSpd(n, 0.2, 7);
+  CholmodFactor factor;
+  factor.Analyze(A);
+  ASSERT_TRUE(factor.Factorize(A));
+  const Eigen::MatrixXd A_dense(A);
+  const Eigen::LLT<Eigen::MatrixXd> dense(A_dense);
+  constexpr int kMax = CholmodFactor::kMaxColumnsForSupernodalSolve;
+  for (int k : {1, 2, 3, kMax, kMax + 1, 3 * kMax}) {
+    for (int kind = 0; kind < 3; ++kind) {  // dense, unit, zero first column + dense
+      Eigen::MatrixXd B = Eigen::MatrixXd::Random(n, k);
+      if (kind == 1) {
+        B.setZero();
+        for (int c = 0; c < k; ++c) B((97 * c + 13) % n, c) = 1.0;
+      }
+      if (kind == 2) B.col(0).setZero();
+      Eigen::MatrixXd X(n, k);
+      factor.Solve(B, X);
+      const Eigen::MatrixXd X_ref = dense.solve(B);
+      SCOPED_TRACE(testing::Message() << k << " columns, kind " << kind);
+      EXPECT_LE((A * X - B).norm(), kSolveTol * B.norm());
+      EXPECT_LE((X - X_ref).norm(), 1e-10 * X_ref.norm());
+      if (kind == 2) {
+        EXPECT_EQ(X.col(0).squaredNorm(), 0.0);
+      }
+      Eigen::VectorXd last(n);
+      factor.Solve(B.col(k - 1), last);
+      EXPECT_LT((last - X.col(k - 1)).norm(), kSolveTol * (1.0 + last.norm()));
+    }
+  }
+}
+
 int CountThreadsOfThisProcess() {
   int count = 0;
   for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator("/proc/self/task"))
