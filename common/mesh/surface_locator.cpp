@@ -12,19 +12,17 @@
 
 namespace nsim {
 
-SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x)
-    : triangles_(mesh.surface), x_(x) {
-  NSIM_CHECK(x.cols() == mesh.num_nodes(), "positions have ", x.cols(), " columns for ",
-             mesh.num_nodes(), " nodes");
-  // owning tet of each surface triangle, by matching sorted node triples
+namespace {
+
+// per surface triangle, a tetrahedron it is a face of, by matching sorted node triples (-1: none)
+std::vector<int> FindOwningTets(const TetMesh& mesh) {
   std::map<std::array<int, 3>, int> index;
-  for (int i = 0; i < static_cast<int>(triangles_.size()); ++i) {
-    std::array<int, 3> key{triangles_[i][0], triangles_[i][1], triangles_[i][2]};
+  for (int i = 0; i < static_cast<int>(mesh.surface.size()); ++i) {
+    std::array<int, 3> key{mesh.surface[i][0], mesh.surface[i][1], mesh.surface[i][2]};
     std::sort(key.begin(), key.end());
     index.emplace(key, i);
   }
-  owner_.assign(triangles_.size(), TetPoint());
-  owner_local_.assign(triangles_.size(), Eigen::Vector3i::Constant(-1));
+  std::vector<int> owners(mesh.surface.size(), -1);
   static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
   for (int e = 0; e < mesh.num_tets(); ++e) {
     const Eigen::Vector4i& t = mesh.tets[e];
@@ -32,16 +30,38 @@ SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x)
       std::array<int, 3> key{t[f[0]], t[f[1]], t[f[2]]};
       std::sort(key.begin(), key.end());
       const auto it = index.find(key);
-      if (it == index.end()) continue;
-      owner_[it->second].tet = e;
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 4; ++l)
-          if (t[l] == triangles_[it->second][k]) owner_local_[it->second][k] = l;
+      if (it != index.end()) owners[it->second] = e;
     }
+  }
+  return owners;
+}
+
+}  // namespace
+
+SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x)
+    : SurfaceLocator(mesh, x, FindOwningTets(mesh)) {}
+
+SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x,
+                               const std::vector<int>& surface_tets)
+    : triangles_(mesh.surface), x_(x) {
+  NSIM_CHECK(x.cols() == mesh.num_nodes(), "positions have ", x.cols(), " columns for ",
+             mesh.num_nodes(), " nodes");
+  NSIM_CHECK(surface_tets.size() == triangles_.size(), surface_tets.size(),
+             " owning tets given for ", triangles_.size(), " surface triangles");
+  owner_.assign(triangles_.size(), TetPoint());
+  owner_local_.assign(triangles_.size(), Eigen::Vector3i::Constant(-1));
+  for (size_t i = 0; i < triangles_.size(); ++i) {
+    const int e = surface_tets[i];
+    NSIM_CHECK(e >= 0 && e < mesh.num_tets(), "surface triangle ", i,
+               " is no face of a tetrahedron");
+    owner_[i].tet = e;
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 4; ++l)
+        if (mesh.tets[e][l] == triangles_[i][k]) owner_local_[i][k] = l;
+    NSIM_CHECK(owner_local_[i].minCoeff() >= 0, "surface triangle ", i, " is no face of tet ", e);
   }
   std::vector<Eigen::AlignedBox3d> boxes(triangles_.size());
   for (size_t i = 0; i < triangles_.size(); ++i) {
-    NSIM_CHECK(owner_[i].tet >= 0, "surface triangle ", i, " is no face of a tetrahedron");
     Eigen::AlignedBox3d box;
     for (int k = 0; k < 3; ++k) box.extend(Eigen::Vector3d(x_.col(triangles_[i][k])));
     const double pad = 1e-12 * box.sizes().maxCoeff();

@@ -257,7 +257,7 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
       // contact search along the tip's motion
       const Eigen::Vector3d a = tip_start - cfg.contact_margin * z_tip_start;
       if (SegmentNearBox(xs, a, tip_end, cfg.contact_margin)) {
-        const SurfaceLocator surface(mesh, xs);
+        const SurfaceLocator surface(mesh, xs, tissues_[t].adjacency.surface_tets);
         const std::optional<SurfacePoint> hit = surface.FirstHit(a, tip_end);
         if (hit && hit->normal.dot(tip_end - a) < 0.0) {
           ts.phase = TissuePhase::kContact;
@@ -467,7 +467,7 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
           ts.phase = TissuePhase::kExited;
           ts.tip = TetPoint{};
           const double back = std::max(r.depth - ts.last_seed_depth, 1e-6) + 1e-6;
-          const SurfaceLocator surface(mesh, x);
+          const SurfaceLocator surface(mesh, x, tissues_[t].adjacency.surface_tets);
           const std::optional<SurfacePoint> hit = surface.FirstHit(tip, tip - back * z_tip);
           if (hit) {
             NeedlePathPoint p;

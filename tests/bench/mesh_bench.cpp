@@ -7,6 +7,7 @@
 
 #include "common/mesh/gmsh_reader.h"
 #include "common/mesh/point_locator.h"
+#include "common/mesh/mesh_adjacency.h"
 #include "common/mesh/surface_locator.h"
 
 namespace nsim {
@@ -82,6 +83,21 @@ void BM_BuildSurfaceLocator(benchmark::State& state) {
 }
 BENCHMARK(BM_BuildSurfaceLocator)
     ->Name("BuildSurfaceLocator")
+    ->Arg(2660)
+    ->Unit(benchmark::kMillisecond);
+
+// the same with the owning tets precomputed (MeshAdjacency::surface_tets): the rebuild on each
+// step's positions that the needle's contact search does
+void BM_BuildSurfaceLocatorWithOwners(benchmark::State& state) {
+  const TetMesh& mesh = Liver(static_cast<int>(state.range(0)));
+  const std::vector<int> owners = CalcMeshAdjacency(mesh).surface_tets;
+  for (auto _ : state) {
+    SurfaceLocator surface(mesh, mesh.X, owners);
+    benchmark::DoNotOptimize(surface);
+  }
+}
+BENCHMARK(BM_BuildSurfaceLocatorWithOwners)
+    ->Name("BuildSurfaceLocatorWithOwners")
     ->Arg(2660)
     ->Unit(benchmark::kMillisecond);
 

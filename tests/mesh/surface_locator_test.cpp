@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <random>
 
+#include "common/mesh/mesh_adjacency.h"
 #include "common/mesh/tet_mesh.h"
 
 namespace nsim {
@@ -127,6 +128,40 @@ TEST(SurfaceLocator, FollowsDeformedPositions) {
   EXPECT_LT((EvalTetPoint(mesh, x, hit->tet_point) - hit->p).norm(), kTol);
   EXPECT_NEAR(surface.Closest(Eigen::Vector3d(kLo.x() - 0.1, centre.y(), centre.z())).distance,
               0.15, kTol);
+}
+
+// the owning tets given (MeshAdjacency::surface_tets, as the needle's contact search passes
+// them) build the same locator as the face matching: every query answers the same, to the bit
+TEST(SurfaceLocator, GivenOwnersAnswerLikeTheFaceMatching) {
+  const TetMesh mesh = Box();
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> jitter(-0.004, 0.004);
+  Eigen::Matrix3Xd x = mesh.X;
+  for (int i = 0; i < x.cols(); ++i)
+    for (int k = 0; k < 3; ++k) x(k, i) += jitter(rng);
+  const SurfaceLocator matched(mesh, x);
+  const SurfaceLocator given(mesh, x, CalcMeshAdjacency(mesh).surface_tets);
+  std::uniform_real_distribution<double> where(-0.2, 0.6);
+  for (int q = 0; q < 200; ++q) {
+    const Eigen::Vector3d a(where(rng), where(rng), where(rng)), b(where(rng), where(rng), where(rng));
+    const SurfacePoint c1 = matched.Closest(a), c2 = given.Closest(a);
+    EXPECT_EQ(c1.triangle, c2.triangle);
+    EXPECT_EQ(c1.tet_point.tet, c2.tet_point.tet);
+    EXPECT_EQ(c1.tet_point.bary, c2.tet_point.bary);
+    EXPECT_LT((EvalTetPoint(mesh, x, c2.tet_point) - c2.p).norm(), kTol);
+    const auto h1 = matched.FirstHit(a, b), h2 = given.FirstHit(a, b);
+    ASSERT_EQ(h1.has_value(), h2.has_value());
+    if (h1) {
+      EXPECT_EQ(h1->tet_point.tet, h2->tet_point.tet);
+      EXPECT_EQ(h1->tet_point.bary, h2->tet_point.bary);
+    }
+  }
+  // a wrong owner (a tet the triangle is no face of) or a wrong count is a programming error
+  std::vector<int> wrong = CalcMeshAdjacency(mesh).surface_tets;
+  const std::vector<int> short_list(wrong.begin(), wrong.end() - 1);
+  EXPECT_DEATH(SurfaceLocator(mesh, x, short_list), "owning tets given");
+  wrong[0] = wrong[0] == 0 ? mesh.num_tets() - 1 : 0;
+  EXPECT_DEATH(SurfaceLocator(mesh, x, wrong), "is no face of tet");
 }
 
 }  // namespace
