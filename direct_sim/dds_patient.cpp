@@ -84,6 +84,7 @@ class PatientPump {
       if (!PublishFrame()) break;
       if (k == 0 && controller) frames_.WaitForAcks(kPeerSettle_s);
       if (!StepOnce(k)) break;
+      loop_.Prefetch();  // the frame of this step goes out at the next period: this is off it
       outputs_.OnStep(loop_, steps);
       if (const double now = MonotonicSeconds(); now >= next_status) {
         PublishStatus(RunState::kRunning, message_);

@@ -56,6 +56,7 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs,
         delay.Add(*target);
       if (!delay.Ready(k)) ++pinfo->lockstep_timeouts;  // the controller gave no answer
       patient.Step(delay.TakeFor(k));
+      patient.Prefetch();
       outputs.OnStep(patient, steps);
     }
     if (code == 0 && !patient.healthy()) {

@@ -52,7 +52,8 @@ void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
 void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScenario* s) {
   RejectKeysMovedToShared(node, "patient");
   node.CheckKeys({"time_step", "gravity", "constraint_compliance", "liver", "skin", "ribs",
-                  "rib_contact_margin", "diaphragm", "anchors"});
+                  "rib_contact_margin", "prefetch_ahead", "prefetch_rib_margin", "diaphragm",
+                  "anchors"});
   PatientSceneConfig& c = s->scene;
   node.Read("time_step", &c.time_step);
   node.Read("gravity", &c.gravity);
@@ -70,6 +71,8 @@ void ReadPatient(const YamlReader& node, const std::string& base_dir, DirectScen
   skin.Read("pose", &c.skin.X_WS);
   skin.Read("attach_distance", &c.skin.attach_distance);
   node.Read("rib_contact_margin", &c.rib_contact_margin);
+  node.Read("prefetch_ahead", &c.prefetch_ahead);
+  node.Read("prefetch_rib_margin", &c.prefetch_rib_margin);
   c.ribs = ReadOrientedBoxes(node, "ribs");
   c.diaphragm = ReadOrientedBox(node.Child("diaphragm"));
   c.anchors = ReadOrientedBoxes(node, "anchors");

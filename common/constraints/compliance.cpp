@@ -6,6 +6,38 @@
 
 namespace nsim {
 
+int ComplianceAssembler::Prefetch(ConstraintBody& body, const std::vector<int>& nodes) {
+  BodyCache& cache = caches_[body.uid()];
+  if (cache.version != body.compliance_version()) {
+    cache.nodes.clear();
+    cache.version = body.compliance_version();
+  }
+  pending_nodes_.clear();
+  for (int node : nodes) {
+    NSIM_CHECK(node >= 0 && node < body.num_nodes(), "prefetch of node ", node, " of a body of ",
+               body.num_nodes(), " nodes");
+    const auto it = cache.nodes.find(node);
+    if (it != cache.nodes.end()) {
+      it->second.idle = 0;
+      continue;
+    }
+    if (std::find(pending_nodes_.begin(), pending_nodes_.end(), node) == pending_nodes_.end())
+      pending_nodes_.push_back(node);
+  }
+  if (pending_nodes_.empty()) return 0;
+  const int n = body.num_nodes(), k = static_cast<int>(pending_nodes_.size());
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (int j = 0; j < k; ++j)
+    for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * pending_nodes_[j] + c, 3 * j + c, 1.0);
+  Eigen::SparseMatrix<double> rhs(3 * n, 3 * k);
+  rhs.setFromTriplets(triplets.begin(), triplets.end());
+  body.ApplyCompliance(rhs, solved_);
+  NSIM_CHECK(solved_.rows() == 3 * n && solved_.cols() == 3 * k, "ApplyCompliance returned ",
+             solved_.rows(), " x ", solved_.cols(), ", expected ", 3 * n, " x ", 3 * k);
+  for (int j = 0; j < k; ++j) cache.nodes[pending_nodes_[j]].Y = solved_.middleCols(3 * j, 3);
+  return 3 * k;
+}
+
 void ComplianceAssembler::Assemble(const ConstraintSet& set, Eigen::MatrixXd& W) {
   const int num_points = set.num_points();
   stats_ = ComplianceStats{};

@@ -52,6 +52,16 @@ class ComplianceAssembler {
 
   const ComplianceStats& stats() const { return stats_; }
 
+  /// Solves and caches the node columns of `nodes` of `body` not cached yet, ahead of the
+  /// Assemble that will use them (speculative work between steps: the nodes a needle is about
+  /// to reach, contacts about to form). Only for a body whose compliance stays valid between
+  /// steps (its compliance_version unchanged until then, ConstraintBody::ApplyCompliance
+  /// callable outside a step); columns of an older version are dropped first. The requested
+  /// nodes count as used (not evicted for kMaxIdleAssembles assembles). A node column's value
+  /// does not depend on what it is solved with (CholmodFactor::Solve), so prefetching changes
+  /// no result. Returns the number of columns solved (3 per new node).
+  int Prefetch(ConstraintBody& body, const std::vector<int>& nodes);
+
   /// Forgets every cached column.
   void ClearCache() { caches_.clear(); }
 

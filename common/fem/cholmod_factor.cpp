@@ -11,12 +11,9 @@ namespace nsim {
 struct CholmodFactor::Impl {
   cholmod_common common;
   cholmod_factor* factor = nullptr;
-  cholmod_dense* x = nullptr;  // solution workspace of cholmod_solve2
-  cholmod_dense* y = nullptr;
-  cholmod_dense* e = nullptr;
   int n = 0;
-  // the supernodal solve of several right-hand sides (supernodal_solve.h): permuted columns
-  Eigen::MatrixXd y_perm;
+  // Solve's workspace (supernodal_solve.h): the permuted columns, grown as needed
+  Eigen::VectorXd y_perm;
   Eigen::VectorXd gathered;
 
   Impl() {
@@ -33,9 +30,6 @@ struct CholmodFactor::Impl {
     common.error_handler = nullptr;
   }
   ~Impl() {
-    if (x) cholmod_free_dense(&x, &common);
-    if (y) cholmod_free_dense(&y, &common);
-    if (e) cholmod_free_dense(&e, &common);
     if (factor) cholmod_free_factor(&factor, &common);
     cholmod_finish(&common);
   }
@@ -126,32 +120,16 @@ void CholmodFactor::Solve(const Eigen::Ref<const Eigen::MatrixXd>& B,
   NSIM_CHECK(B.rows() == impl_->n && X.rows() == B.rows() && X.cols() == B.cols(),
              "CholmodFactor::Solve size mismatch: n = ", impl_->n, ", B ", B.rows(), " x ",
              B.cols(), ", X ", X.rows(), " x ", X.cols());
-  if (B.cols() <= kMaxColumnsForSupernodalSolve) {
-    const SupernodalFactorView view = supernodal_view();
-    Impl& s = *impl_;
-    s.y_perm.resize(B.rows(), B.cols());
-    for (Eigen::Index c = 0; c < B.cols(); ++c)
-      for (int k = 0; k < view.n; ++k) s.y_perm(k, c) = B(view.perm[k], c);
-    SupernodalSolveInPlace(view, view.x, s.y_perm, s.gathered);
-    for (Eigen::Index c = 0; c < B.cols(); ++c)
-      for (int k = 0; k < view.n; ++k) X(view.perm[k], c) = s.y_perm(k, c);
-    return;
-  }
-  cholmod_dense b{};
-  b.nrow = static_cast<size_t>(B.rows());
-  b.ncol = static_cast<size_t>(B.cols());
-  b.nzmax = b.nrow * b.ncol;
-  b.d = static_cast<size_t>(B.outerStride());
-  b.x = const_cast<double*>(B.data());
-  b.xtype = CHOLMOD_REAL;
-  b.dtype = CHOLMOD_DOUBLE;
-  const int ok = cholmod_solve2(CHOLMOD_A, impl_->factor, &b, nullptr, &impl_->x, nullptr,
-                                &impl_->y, &impl_->e, &impl_->common);
-  NSIM_CHECK(ok, "cholmod_solve2 failed, status ", impl_->common.status);
-  const double* out = static_cast<const double*>(impl_->x->x);
-  const Eigen::Index ld = static_cast<Eigen::Index>(impl_->x->d);
-  for (Eigen::Index c = 0; c < X.cols(); ++c)
-    X.col(c) = Eigen::Map<const Eigen::VectorXd>(out + c * ld, X.rows());
+  const SupernodalFactorView view = supernodal_view();
+  Impl& s = *impl_;
+  // the permuted columns (grown, never shrunk: no allocation once k columns were seen)
+  if (s.y_perm.size() < B.size()) s.y_perm.resize(B.size());
+  Eigen::Map<Eigen::MatrixXd> Y(s.y_perm.data(), view.n, B.cols());
+  for (Eigen::Index c = 0; c < B.cols(); ++c)
+    for (int k = 0; k < view.n; ++k) Y(k, c) = B(view.perm[k], c);
+  SupernodalSolveInPlace(view, view.x, Y, s.gathered);
+  for (Eigen::Index c = 0; c < B.cols(); ++c)
+    for (int k = 0; k < view.n; ++k) X(view.perm[k], c) = Y(k, c);
 }
 
 SupernodalFactorView CholmodFactor::supernodal_view() const {

@@ -2,7 +2,7 @@
 // RAII wrapper of a CHOLMOD supernodal Cholesky factor (SuiteSparse 5.x, OpenBLAS) of a
 // symmetric positive-definite matrix with a fixed sparsity pattern: symbolic analysis once
 // (METIS/AMD ordering, supernodes), numeric factorization whenever the values change, and solves
-// with any number of right-hand sides at once.
+// with any number of right-hand sides at once (supernodal_solve.h on the factor's arrays).
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
@@ -24,14 +24,6 @@ struct SupernodalFactorView {
 
 class CholmodFactor {
  public:
-  /// Up to this many right-hand sides, Solve uses supernodal_solve.h (Eigen's vector kernels
-  /// per column and supernode, the forward solve of a sparse column restricted to its path);
-  /// more go to CHOLMOD's BLAS-3 supernodal solve. Measured on one core, 2660-node liver
-  /// (fem_bench SolveColumns, SolveNodeColumns), this solve against CHOLMOD's: 1 column 0.7
-  /// against 0.8-1.1 ms; the 3 columns of one node 1.1 against 3.1 ms, 6 (two nodes) 2.3
-  /// against 4.2, 12 4.1 against 5.4; 12 dense columns 6.0 against 5.4.
-  static constexpr int kMaxColumnsForSupernodalSolve = 8;
-
   CholmodFactor();
   ~CholmodFactor();
   CholmodFactor(const CholmodFactor&) = delete;
@@ -51,9 +43,13 @@ class CholmodFactor {
   void CopyFrom(const CholmodFactor& other);
 
   /// X = A^-1 B for B of size n x k (any k >= 1, column-major with unit inner stride). X may not
-  /// alias B. k <= kMaxColumnsForSupernodalSolve: supernodal_solve.h (no allocation once its
-  /// workspace has grown to k columns); more: cholmod_solve2 (its workspaces reused between
-  /// calls with the same k). Not thread-safe on one object: one factor per thread.
+  /// alias B. By supernodal_solve.h, not cholmod_solve2: measured on one core, 2660-node liver
+  /// (fem_bench SolveColumns, SolveNodeColumns), against CHOLMOD's: 1 column 0.7 against
+  /// 0.8-1.1 ms; the 3 unit columns of one node 1.1 against 3.1 ms, of two nodes 2.3 against
+  /// 4.2, of four 4.1 against 5.4; 12 dense columns 6.0 against 5.4 (CHOLMOD's BLAS-3 ahead
+  /// there; no caller solves dense columns in bulk). Each column's solution is the same to the
+  /// bit whatever is solved with it and wherever it stands in B. No allocation once the
+  /// workspace has grown to k columns. Not thread-safe on one object: one factor per thread.
   void Solve(const Eigen::Ref<const Eigen::MatrixXd>& B, Eigen::Ref<Eigen::MatrixXd> X);
 
   /// The supernodal factor's arrays (valid until the next Analyze, Factorize or CopyFrom), to

@@ -176,8 +176,8 @@ NeedleCouplingState NeedleTissueCoupling::MakeState() const {
   return s;
 }
 
-TetPoint NeedleTissueCoupling::Locate(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p,
-                                      int hint) const {
+TetPoint NeedleTissueCoupling::Walk(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p,
+                                    int hint) const {
   const TetMesh& mesh = tissues_[t].mesh;
   const auto& neighbors = tissues_[t].adjacency.tet_neighbors;
   int e = (hint >= 0 && hint < mesh.num_tets()) ? hint : 0;
@@ -191,12 +191,66 @@ TetPoint NeedleTissueCoupling::Locate(int t, const Eigen::Matrix3Xd& x, const Ei
     const double lowest = bary.minCoeff(&k);
     if (lowest >= -kWalkTolerance) return TetPoint{e, bary};
     const int next = neighbors[e][k];
-    if (next < 0) break;  // left through the boundary (or a concavity): check globally
+    if (next < 0) break;  // left through the boundary (or a concavity)
     e = next;
   }
-  const TetLocator locator(mesh, x, kWalkTolerance);
+  return TetPoint{};
+}
+
+TetPoint NeedleTissueCoupling::Locate(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p,
+                                      int hint) const {
+  const TetPoint walked = Walk(t, x, p, hint);
+  if (walked.tet >= 0) return walked;
+  // the walk failed: check globally
+  const TetLocator locator(tissues_[t].mesh, x, kWalkTolerance);
   const std::optional<TetPoint> found = locator.Locate(p);
   return found ? *found : TetPoint{};
+}
+
+std::vector<int> NeedleTissueCoupling::CalcNodesAhead(int t, const NeedleView& needle,
+                                                      const Eigen::Matrix3Xd& x,
+                                                      const NeedleCouplingState& state,
+                                                      double distance) const {
+  NSIM_CHECK(t >= 0 && t < num_tissues(), "tissue ", t, " of ", num_tissues());
+  NSIM_CHECK(static_cast<int>(state.tissues.size()) == num_tissues(),
+             "coupling state made for another coupling");
+  const TetMesh& mesh = tissues_[t].mesh;
+  NSIM_CHECK(x.cols() == mesh.num_nodes(), "positions have ", x.cols(), " columns for ",
+             mesh.num_nodes(), " nodes");
+  std::vector<int> nodes;
+  const TissueCouplingState& ts = state.tissues[t];
+  if (!(distance > 0.0) || ts.phase == TissuePhase::kExited) return nodes;
+  const int n = needle.num_nodes();
+  const Eigen::Vector3d tip = needle.end.col(n - 1);
+  const Eigen::Vector3d z = needle.R_WTip_end.col(2);
+  // where the walk along the axis starts: the tip's tet, or where the axis enters the surface
+  double s = 0.0;
+  int e = -1;
+  if (ts.phase == TissuePhase::kInside) {
+    const int hint = ts.points.empty() ? -1 : ts.points.back().point.tet;
+    e = ts.tip.tet >= 0 ? ts.tip.tet : Walk(t, x, tip, hint).tet;
+  } else if (SegmentNearBox(x, tip, tip + distance * z, 0.0)) {
+    const SurfaceLocator surface(mesh, x, tissues_[t].adjacency.surface_tets);
+    const std::optional<SurfacePoint> hit = surface.FirstHit(tip, tip + distance * z);
+    if (hit && hit->normal.dot(z) < 0.0) {
+      e = hit->tet_point.tet;
+      s = hit->distance * distance;
+    }
+  }
+  if (e < 0) return nodes;
+  // the tets along the axis, sampled finer than any tet's size (a sample every 0.5 mm)
+  constexpr double kSample = 5e-4;
+  for (;;) {
+    for (int k = 0; k < 4; ++k) nodes.push_back(mesh.tets[e][k]);
+    s += kSample;
+    if (s > distance) break;
+    const TetPoint next = Walk(t, x, tip + s * z, e);
+    if (next.tet < 0) break;  // out of the tissue
+    e = next.tet;
+  }
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  return nodes;
 }
 
 void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,

@@ -241,6 +241,15 @@ class NeedleTissueCoupling {
   void Update(const NeedleView& needle, const std::vector<const Eigen::Matrix3Xd*>& tissue_x,
               const Eigen::VectorXd& lambda, double time, NeedleCouplingState& state) const;
 
+  /// The nodes of tissue t the needle's tip is heading for: those of the tets its axis crosses
+  /// within `distance` (m) ahead of the tip (the needle as `needle.end`, its direction the tip
+  /// frame's z), from the tip's tet when it is inside the tissue, else from where the axis
+  /// enters the tissue's surface (none when it does not within `distance`, or the tissue is
+  /// exited); tissue positions x (3 x #nodes). Sorted, unique. What the next steps' points will
+  /// be on: for solving their compliance columns ahead (PatientScene::Prefetch).
+  std::vector<int> CalcNodesAhead(int t, const NeedleView& needle, const Eigen::Matrix3Xd& x,
+                                  const NeedleCouplingState& state, double distance) const;
+
   /// The bevel load for the next step (inactive with a symmetric tip or the tip outside).
   BevelTipLoad CalcBevelTipLoad(const NeedleView& needle, const NeedleCouplingState& state) const;
 
@@ -256,6 +265,8 @@ class NeedleTissueCoupling {
   };
   // locates p in tissue t at positions x by walking from `hint`, then globally; tet = -1: out
   TetPoint Locate(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p, int hint) const;
+  // the walk alone (tet = -1 when it leaves through the boundary or a concavity)
+  TetPoint Walk(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p, int hint) const;
 
   NeedleCouplingConfig config_;
   BevelLoads bevel_loads_;

@@ -76,6 +76,8 @@ void PatientRecorder::AddFrame(const PatientLoop& loop) {
 void PatientRecorder::AddStep(const PatientLoop& loop) {
   const PatientStepReport& s = loop.last_step();
   step_ms_.push_back(s.wall_ms);
+  prefetch_ms_.push_back(s.prefetch_ms);
+  prefetch_columns_ += s.prefetch_columns;
   if (s.holding) ++hold_steps_;
   const uint64_t applied = loop.frame().applied_seq;
   if (applied != SensorFrame::kNoTarget && applied != last_applied_) ++targets_applied_;
@@ -122,6 +124,9 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   j["simulated_time_s"] = loop.time();
   j["wall_time_s"] = info.wall_time;
   j["step_time_ms"] = StatsMs(step_ms_);
+  // the work between steps (PatientScene::Prefetch): its time after each step and the
+  // compliance columns it solved
+  j["prefetch"] = {{"time_ms", StatsMs(prefetch_ms_)}, {"columns", prefetch_columns_}};
   // the patient liver's solver: PCG iterations a step, the factor refreshes adopted from the
   // background worker (how many steps after their request, how many made their step wait), the
   // factorizations done inside a step, and the slices given to the worker on one CPU

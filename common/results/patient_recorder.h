@@ -89,6 +89,8 @@ class PatientRecorder {
   std::unique_ptr<LineFile> csv_, steps_csv_;
   std::vector<std::pair<double, double>> distance_log_;  // (t, true tip-target distance (m))
   std::vector<double> step_ms_;
+  std::vector<double> prefetch_ms_;  // PatientLoop::Prefetch after each step
+  int64_t prefetch_columns_ = 0;
   double last_distance_ = 0.0, min_distance_ = INFINITY, max_rib_penetration_ = 0.0;
   double min_joint_margin_ = INFINITY;  // iiwa: closest approach of a joint to its limit (rad)
   Eigen::Vector3d last_e_p_ = Eigen::Vector3d::Zero();

@@ -121,4 +121,10 @@ const SensorFrame& PatientLoop::Step(const std::optional<RobotTarget>& target) {
   return frame_;
 }
 
+void PatientLoop::Prefetch() {
+  const double start = MonotonicSeconds();
+  last_step_.prefetch_columns = scene_->Prefetch();
+  last_step_.prefetch_ms = 1e3 * (MonotonicSeconds() - start);
+}
+
 }  // namespace nsim

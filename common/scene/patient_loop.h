@@ -68,6 +68,10 @@ struct PatientStepReport {
   bool gated_target = false;     ///< a target went through the gate this step
   SceneStepReport scene;
   double max_rib_penetration = 0.0;  ///< after the step (m)
+  /// Prefetch after the step (PatientLoop::Prefetch): its wall time (ms) and the compliance
+  /// columns it solved; 0 when it was not called.
+  double prefetch_ms = 0.0;
+  int prefetch_columns = 0;
 };
 
 class PatientLoop {
@@ -97,6 +101,10 @@ class PatientLoop {
   /// steps the physics, and returns the frame of the new state.
   const SensorFrame& Step(const std::optional<RobotTarget>& target = std::nullopt);
   const PatientStepReport& last_step() const { return last_step_; }
+  /// The scene's work for the next steps (PatientScene::Prefetch), to call between steps: after
+  /// Step, off the path from a target to the frame it produces (realtime: in the time left
+  /// before the next period). Changes no result. Recorded in last_step().
+  void Prefetch();
 
   /// While lost, the robot holds whatever targets arrive (the pump sets it from DDS liveliness).
   void set_controller_lost(bool lost) { controller_lost_ = lost; }

@@ -152,19 +152,32 @@ PatientScene::PatientScene(const PatientSceneConfig& config, const TetMesh& live
   skin_body_ = std::make_unique<FemConstraintBody>(*skin_solver_, state_.skin);
   if (state_.beam_needle)
     needle_body_ = std::make_unique<BeamNeedleBody>(*model_->beam_needle(), *state_.beam_needle);
-  PrefetchRibCompliance();
-}
-
-void PatientScene::PrefetchRibCompliance() {
-  // With the rest compliance the columns of the liver nodes touching the ribs never change:
-  // solve those of the nodes within the margin at rest now, not in the first (timed) step. They
-  // stay cached while the contacts last (ComplianceAssembler); Step clears the set.
-  if (!model_->config().liver_rest_compliance) return;
-  const int liver_index = set_.AddBody(*liver_body_);
-  if (AddRibContacts(set_, liver_index) > 0) solver_.Assemble(set_);
+  // the columns the first steps need (the rib contacts at rest) before the first, timed step
+  Prefetch();
 }
 
 PatientScene::~PatientScene() = default;
+
+int PatientScene::Prefetch() {
+  const PatientSceneConfig& config = model_->config();
+  if (!config.liver_rest_compliance) return 0;
+  std::vector<int> nodes;
+  if (config.prefetch_ahead > 0.0) {
+    const NeedleView view = needle_body_ ? MakeNeedleView(*needle_body_, -1)
+                                         : MakeNeedleView(model_->rigid_needle(), state_.rigid_needle);
+    nodes = model_->coupling().CalcNodesAhead(kLiverTissue, view, state_.liver.x, state_.coupling,
+                                              config.prefetch_ahead);
+  }
+  if (config.prefetch_rib_margin > 0.0)
+    for (int node : model_->contact_nodes())
+      for (const OrientedBox& rib : config.ribs)
+        if (CalcBoxProximity(rib, state_.liver.x.col(node)).signed_distance <
+            config.prefetch_rib_margin) {
+          nodes.push_back(node);
+          break;
+        }
+  return nodes.empty() ? 0 : solver_.compliance().Prefetch(*liver_body_, nodes);
+}
 
 int PatientScene::AddRibContacts(ConstraintSet& set, int liver_body) {
   const double margin = model_->config().rib_contact_margin;

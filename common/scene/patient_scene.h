@@ -124,6 +124,13 @@ class PatientScene {
   /// by bevel_angle (rad) about its axis. InputError on a non-finite pose.
   SceneStepReport Step(const Eigen::Isometry3d& X_WF_end, double bevel_angle = 0.0);
 
+  /// Work for the next steps, done between steps (off the time from a target to the state it
+  /// produces): solves the liver compliance columns those steps will likely need
+  /// (PatientSceneConfig::prefetch_ahead, prefetch_rib_margin) so that they reuse them. Changes
+  /// no result, bit for bit (a column is the same whenever it is solved). Nothing without the
+  /// rest compliance. Returns the number of columns solved.
+  int Prefetch();
+
   double time() const { return state_.liver.time; }
   const PatientSceneModel& model() const { return *model_; }
   const PatientSceneState& state() const { return state_; }
@@ -148,7 +155,6 @@ class PatientScene {
 
  private:
   int AddRibContacts(ConstraintSet& set, int liver_body);
-  void PrefetchRibCompliance();
 
   std::unique_ptr<const PatientSceneModel> model_;
   PatientSceneState state_;

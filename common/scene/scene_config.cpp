@@ -87,6 +87,11 @@ void PatientSceneConfig::Validate() const {
     throw InputError(Str("patient.rib_contact_margin must be >= 0 (m), got ", rib_contact_margin));
   // ribs touch the liver: a margin of 10 cm would put the whole organ in contact
   CheckAtMost(rib_contact_margin, 0.1, "patient.rib_contact_margin", "m");
+  for (const auto& [value, name] : {std::pair{prefetch_ahead, "patient.prefetch_ahead"},
+                                    std::pair{prefetch_rib_margin, "patient.prefetch_rib_margin"}}) {
+    if (!(value >= 0)) throw InputError(Str(name, " must be >= 0 (m), got ", value));
+    CheckAtMost(value, 0.1, name, "m");
+  }
   diaphragm.Validate("patient.diaphragm");
   for (size_t i = 0; i < anchors.size(); ++i) anchors[i].Validate(Str("patient.anchors[", i, "]"));
   breathing.Validate();

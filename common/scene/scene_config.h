@@ -108,6 +108,14 @@ struct PatientSceneConfig {
   /// Liver surface nodes closer than this to a rib box (at the free motion) get a contact row
   /// (m), >= 0.
   double rib_contact_margin = 0.005;
+  /// Compliance columns solved between steps (PatientScene::Prefetch; with the rest compliance
+  /// only, the one constant between steps), so that the steps that need them find them: the
+  /// liver nodes of the tets the needle's axis crosses within prefetch_ahead (m) of its tip,
+  /// and the liver surface nodes within prefetch_rib_margin (m) of a rib box (YAML
+  /// patient.prefetch_ahead, patient.prefetch_rib_margin; 0 turns either off). Results do not
+  /// depend on them, only where the time goes.
+  double prefetch_ahead = 0.004;
+  double prefetch_rib_margin = 0.010;
   /// Liver nodes inside this box follow the breathing motion exactly: x = X + d(t).
   OrientedBox diaphragm;
   /// Liver nodes inside any of these boxes are fixed (posterior attachment, no drift).

@@ -16,7 +16,10 @@
 // steps later); compliance Rest (constraint_compliance: rest, the scenario's: A_0^-1, constant,
 // a refresh costs no compliance columns) or LastFactor (constraint_compliance: last_factor: the
 // liver's last factor; a swap invalidates the cached columns, recomputed in the swap step,
-// swap_step_ms).
+// swap_step_ms). After each step the sequences do the work between steps as direct_sim does
+// (PatientScene::Prefetch: the compliance columns of the nodes the needle and the ribs will
+// reach), timed apart: prefetch_p50_ms / prefetch_p99_ms / prefetch_max_ms; .../NoPrefetch
+// leaves it to the steps.
 
 #include <benchmark/benchmark.h>
 
@@ -45,8 +48,11 @@ struct Fixture {
   // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it; adopt_delay:
   // 0 keeps the scenario's refactor_adopt_delay; the refreshes are adopted as `adoption` says;
   // slice: < 0 keeps the scenario's refactor_slice (s, 0 in the default scenario)
+  // prefetch: false sets prefetch_ahead and prefetch_rib_margin to 0 (PatientScene::Prefetch
+  // does nothing)
   explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0,
-                   FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0) {
+                   FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
+                   bool prefetch = true) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
@@ -55,15 +61,18 @@ struct Fixture {
     if (adopt_delay > 0) scenario.scene.liver.refactor_adopt_delay = adopt_delay;
     scenario.scene.liver.refactor_adoption = adoption;
     if (slice >= 0.0) scenario.scene.liver.refactor_slice = slice;
+    if (!prefetch) scenario.scene.prefetch_ahead = scenario.scene.prefetch_rib_margin = 0.0;
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
                              scenario.insertion.approach_distance);
     scene = std::make_unique<PatientScene>(scenario.scene, scenario.liver_mesh, scenario.skin_mesh,
                                            plan.CalcFlangePose(0.0));
   }
+  // a step and the work between steps after it (PatientScene::Prefetch), as direct_sim does
   void Step() {
     s = std::min(s + 0.01 * scenario.scene.time_step, plan.total_travel());
     scene->Step(plan.CalcFlangePose(s));
+    scene->Prefetch();
   }
 };
 
@@ -141,12 +150,16 @@ BENCHMARK(BM_DirectSceneFirstStep)
 // does), so that the background refresh can use the time the steps leave
 void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
                          bool paced = false, int adopt_delay = 0,
-                         FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0) {
-  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption, slice);
+                         FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
+                         bool prefetch = true) {
+  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption, slice,
+            prefetch);
   while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
          f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
   StepTimes times(static_cast<size_t>(state.max_iterations));
+  StepTimes between(static_cast<size_t>(state.max_iterations));
+  double prefetch_columns = 0;
   std::vector<double> swap_ms, request_ms;
   double swaps = 0, waits = 0, refactorizations = 0, cg = 0, steps = 0, rows = 0, lags = 0;
   double slice_wait = 0, sliced_steps = 0;
@@ -162,6 +175,8 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
       f.s = std::min(f.s + 0.01 * f.scenario.scene.time_step, f.plan.total_travel());
       return f.scene->Step(f.plan.CalcFlangePose(f.s));
     });
+    // the work between steps, timed apart (realtime: in the period's time left after the step)
+    prefetch_columns += between.Time([&] { return f.scene->Prefetch(); });
     const FemStepStats& liver = report.liver_stats;
     swaps += liver.factor_swapped;
     waits += liver.waited_for_worker;
@@ -176,6 +191,10 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
     steps += 1;
   }
   times.Report(state);
+  state.counters["prefetch_p50_ms"] = between.Percentile(0.50);
+  state.counters["prefetch_p99_ms"] = between.Percentile(0.99);
+  state.counters["prefetch_max_ms"] = between.Percentile(1.00);
+  state.counters["prefetch_columns_per_step"] = prefetch_columns / steps;
   state.counters["liver_refactor_per_step"] = refactorizations / steps;
   state.counters["bg_swaps_per_step"] = swaps / steps;
   state.counters["waits_per_swap"] = swaps > 0 ? waits / swaps : 0.0;
@@ -224,6 +243,14 @@ void RegisterSequences() {
   // one CPU (taskset -c N) the first spreads each refresh over the steps, the second leaves the
   // worker only what the steps leave, little when they run back to back; on two CPUs the two
   // are the same (the slice is not used)
+  // the same without the work between steps (prefetch_ahead and prefetch_rib_margin 0): the
+  // steps then solve the compliance columns of the nodes the needle and the ribs reach
+  benchmark::RegisterBenchmark("DirectSceneSequence/Background/Rest/2660/WhenReady/NoPrefetch",
+                               [](benchmark::State& s) {
+                                 DirectSceneSequence(s, true, true, false, 0,
+                                                     FactorAdoption::kWhenReady, -1.0, false);
+                               })
+      ->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
   for (bool sliced : {true, false}) {
     const std::string name =
         std::string("DirectSceneSequence/Background/Rest/2660/WhenReady") + (sliced ? "" : "/NoSlice");

@@ -30,6 +30,8 @@ class StepTimes {
   }
   /// Time of the last recorded step (ms).
   double last() const { return ms_.back(); }
+  /// Nearest-rank percentile of the recorded times (ms), 0 when none.
+  double Percentile(double q) const { return Percentile(ms_, q); }
 
   /// Nearest-rank percentile (q in [0, 1]) of `values` (ms).
   static double Percentile(std::vector<double> values, double q) {
