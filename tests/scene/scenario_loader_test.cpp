@@ -102,6 +102,24 @@ TEST(ScenarioLoaderTest, ConstraintComplianceChoices) {
           .scene.liver_rest_compliance);
 }
 
+// patient.prefetch_ahead and patient.prefetch_rib_margin: read, and bounded like the other
+// lengths
+TEST(ScenarioLoaderTest, PrefetchDistances) {
+  const auto load = [](const std::string& text) {
+    return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
+                               SourcePath("configs/scenarios"));
+  };
+  const DirectScenario s = load(DefaultText());
+  EXPECT_EQ(s.scene.prefetch_ahead, 0.004);
+  EXPECT_EQ(s.scene.prefetch_rib_margin, 0.010);
+  EXPECT_EQ(load(Edited("prefetch_ahead: 0.004", "prefetch_ahead: 0")).scene.prefetch_ahead, 0.0);
+  EXPECT_EQ(LoadError(Edited("prefetch_ahead: 0.004", "prefetch_ahead: -0.001")),
+            "scenario.yaml: patient.prefetch_ahead must be >= 0 (m), got -0.001");
+  EXPECT_EQ(LoadError(Edited("prefetch_rib_margin: 0.010", "prefetch_rib_margin: 0.5"))
+                .rfind("scenario.yaml: patient.prefetch_rib_margin", 0),
+            0u);
+}
+
 // patient.liver.refactor_adoption chooses for realtime runs; a lockstep run's patient loop
 // always adopts on schedule (deterministic), whatever the file says
 TEST(ScenarioLoaderTest, RefactorAdoptionIsScheduledInLockstep) {
