@@ -24,6 +24,9 @@ constexpr double kTipSkipFraction = 0.25;
 constexpr double kTipRampStart = 0.02;
 // barycentric slack of the point-location walk (-)
 constexpr double kWalkTolerance = 1e-9;
+// a point this far outside a tissue's surface (m) is in none of its tets, whatever the
+// tolerance of the search (kWalkTolerance is barycentric: 1e-9 of a tet's size, picometres)
+constexpr double kOutsideForSure = 1e-6;
 // constraint-point key of the tip in each tissue (seeded points count up from 1; keys only
 // need to be distinct within one body)
 constexpr std::uint64_t kTipPointKey = std::uint64_t{1} << 61;
@@ -201,7 +204,12 @@ TetPoint NeedleTissueCoupling::Locate(int t, const Eigen::Matrix3Xd& x, const Ei
                                       int hint) const {
   const TetPoint walked = Walk(t, x, p, hint);
   if (walked.tet >= 0) return walked;
-  // the walk failed: check globally
+  // the walk left through the boundary: p is outside, or inside beyond a concavity. The
+  // surface's signed distance tells (0.3 ms to build on the 2660-node liver, against 2.5 ms for
+  // the tet locator); the tet locator searches only when p is inside or within a micrometre of
+  // the surface (where its tolerance decides)
+  const SurfaceLocator surface(tissues_[t].mesh, x, tissues_[t].adjacency.surface_tets);
+  if (surface.SignedDistance(p) > kOutsideForSure) return TetPoint{};
   const TetLocator locator(tissues_[t].mesh, x, kWalkTolerance);
   const std::optional<TetPoint> found = locator.Locate(p);
   return found ? *found : TetPoint{};

@@ -250,6 +250,12 @@ class NeedleTissueCoupling {
   std::vector<int> CalcNodesAhead(int t, const NeedleView& needle, const Eigen::Matrix3Xd& x,
                                   const NeedleCouplingState& state, double distance) const;
 
+  /// Where p (m) is in tissue t at positions x (3 x #nodes): walking from tet `hint` (any
+  /// index; -1 starts at tet 0), and when the walk leaves through the boundary, the surface's
+  /// signed distance, then a global search unless p is outside for sure (past a concavity p
+  /// may still be inside). tet = -1: outside.
+  TetPoint Locate(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p, int hint) const;
+
   /// The bevel load for the next step (inactive with a symmetric tip or the tip outside).
   BevelTipLoad CalcBevelTipLoad(const NeedleView& needle, const NeedleCouplingState& state) const;
 
@@ -263,8 +269,6 @@ class NeedleTissueCoupling {
     TetMesh mesh;
     MeshAdjacency adjacency;
   };
-  // locates p in tissue t at positions x by walking from `hint`, then globally; tet = -1: out
-  TetPoint Locate(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p, int hint) const;
   // the walk alone (tet = -1 when it leaves through the boundary or a concavity)
   TetPoint Walk(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p, int hint) const;
 

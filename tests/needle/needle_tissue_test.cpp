@@ -322,5 +322,43 @@ TEST(NeedleTissueTest, BadConfigNamesTheKey) {
   EXPECT_THROW(NeedleTissueCoupling(config, {&mesh}), InputError);  // one mesh for two tissues
 }
 
+// Locate on a concave tissue: a 3 x 1 x 2 block of cubes with the top middle cube removed (a
+// notch). From a tet of the left arm, the walk towards a point in the right arm leaves through
+// the notch's wall: the point is still found (the global search), while points outside, in
+// the notch or beyond the block, are not; every found point is inside its tet to round-off
+TEST(NeedleTissueCouplingTest, LocateFindsPointsBeyondAConcavity) {
+  const TetMesh box = MakeBoxTetMesh(Eigen::Vector3i(7, 3, 5), Eigen::Vector3d(0.03, 0.01, 0.02));
+  TetMesh notched;
+  notched.X = box.X;
+  for (const Eigen::Vector4i& t : box.tets) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 4; ++k) c += 0.25 * box.X.col(t[k]);
+    if (c.x() > 0.01 && c.x() < 0.02 && c.z() > 0.01) continue;  // the notch
+    notched.tets.push_back(t);
+  }
+  notched.surface = ComputeBoundarySurface(notched.tets);
+  NeedleCouplingConfig config;
+  config.tissues = {TissueCouplingConfig{}};
+  const NeedleTissueCoupling coupling(config, {&notched});
+  // a tet of the left arm's top
+  int left = -1;
+  for (int e = 0; e < notched.num_tets() && left < 0; ++e) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 4; ++k) c += 0.25 * notched.X.col(notched.tets[e][k]);
+    if (c.x() < 0.01 && c.z() > 0.01) left = e;
+  }
+  ASSERT_GE(left, 0);
+  const Eigen::Vector3d right_arm(0.025, 0.005, 0.015), notch(0.015, 0.005, 0.015),
+      below_notch(0.015, 0.005, 0.005), outside(0.025, 0.005, 0.0205), far(0.1, 0.1, 0.1);
+  for (const Eigen::Vector3d& p : {right_arm, below_notch}) {
+    const TetPoint found = coupling.Locate(0, notched.X, p, left);
+    ASSERT_GE(found.tet, 0) << p.transpose();
+    EXPECT_LT((EvalTetPoint(notched, notched.X, found) - p).norm(), 1e-12) << p.transpose();
+    EXPECT_GE(found.bary.minCoeff(), -1e-9) << p.transpose();
+  }
+  for (const Eigen::Vector3d& p : {notch, outside, far})
+    EXPECT_LT(coupling.Locate(0, notched.X, p, left).tet, 0) << p.transpose();
+}
+
 }  // namespace
 }  // namespace nsim
