@@ -2,8 +2,8 @@
 # Builds the benchmarks (Release) and runs every benchmark binary single-threaded on one core,
 # with repetitions; writes results/bench_<date>/bench.json (the runs' Google Benchmark JSON
 # merged) and bench.md (a table: median, p99 where a benchmark reports a step distribution, and
-# the ratios to the baselines of the same run: one CHOLMOD solve (Solve/<size>, the floor of any
-# step) and refactorize-every-step (LiverStepRefactorEveryStep/<size>, the naive step); with
+# the ratios to the baselines of the same run: one solve with the double factor (Solve/<size>,
+# the floor of any step) and refactorize-every-step (LiverStepRefactorEveryStep/<size>, the naive step); with
 # --baseline DIR also the same benchmarks from another build and the ratio to them).
 #
 #   scripts/bench.sh [--reps N] [--filter REGEX] [--baseline BUILD_DIR] [--cpu C]
