@@ -6,7 +6,8 @@
 
 namespace nsim {
 
-int ComplianceAssembler::Prefetch(ConstraintBody& body, const std::vector<int>& nodes) {
+int ComplianceAssembler::Prefetch(ConstraintBody& body, const std::vector<int>& nodes,
+                                  int max_new_nodes) {
   BodyCache& cache = caches_[body.uid()];
   if (cache.version != body.compliance_version()) {
     cache.nodes.clear();
@@ -21,7 +22,8 @@ int ComplianceAssembler::Prefetch(ConstraintBody& body, const std::vector<int>& 
       it->second.idle = 0;
       continue;
     }
-    if (std::find(pending_nodes_.begin(), pending_nodes_.end(), node) == pending_nodes_.end())
+    if (static_cast<int>(pending_nodes_.size()) < max_new_nodes &&
+        std::find(pending_nodes_.begin(), pending_nodes_.end(), node) == pending_nodes_.end())
       pending_nodes_.push_back(node);
   }
   if (pending_nodes_.empty()) return 0;

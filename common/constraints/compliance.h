@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -57,10 +58,12 @@ class ComplianceAssembler {
   /// to reach, contacts about to form). Only for a body whose compliance stays valid between
   /// steps (its compliance_version unchanged until then, ConstraintBody::ApplyCompliance
   /// callable outside a step); columns of an older version are dropped first. The requested
-  /// nodes count as used (not evicted for kMaxIdleAssembles assembles). A node column's value
-  /// does not depend on what it is solved with (CholmodFactor::Solve), so prefetching changes
-  /// no result. Returns the number of columns solved (3 per new node).
-  int Prefetch(ConstraintBody& body, const std::vector<int>& nodes);
+  /// nodes count as used (not evicted for kMaxIdleAssembles assembles). At most
+  /// `max_new_nodes` are solved, the first of `nodes` not cached (the rest in a later call). A
+  /// node column's value does not depend on what it is solved with (CholmodFactor::Solve), so
+  /// prefetching changes no result. Returns the number of columns solved (3 per new node).
+  int Prefetch(ConstraintBody& body, const std::vector<int>& nodes,
+               int max_new_nodes = std::numeric_limits<int>::max());
 
   /// Forgets every cached column.
   void ClearCache() { caches_.clear(); }

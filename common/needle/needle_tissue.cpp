@@ -256,9 +256,11 @@ std::vector<int> NeedleTissueCoupling::CalcNodesAhead(int t, const NeedleView& n
     if (next.tet < 0) break;  // out of the tissue
     e = next.tet;
   }
-  std::sort(nodes.begin(), nodes.end());
-  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-  return nodes;
+  // unique, in the order met (nearest the tip first)
+  std::vector<int> unique;
+  for (int node : nodes)
+    if (std::find(unique.begin(), unique.end(), node) == unique.end()) unique.push_back(node);
+  return unique;
 }
 
 void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,

@@ -245,8 +245,9 @@ class NeedleTissueCoupling {
   /// within `distance` (m) ahead of the tip (the needle as `needle.end`, its direction the tip
   /// frame's z), from the tip's tet when it is inside the tissue, else from where the axis
   /// enters the tissue's surface (none when it does not within `distance`, or the tissue is
-  /// exited); tissue positions x (3 x #nodes). Sorted, unique. What the next steps' points will
-  /// be on: for solving their compliance columns ahead (PatientScene::Prefetch).
+  /// exited); tissue positions x (3 x #nodes). Unique, in the order met along the axis (the
+  /// nearest tet's first). What the next steps' points will be on: for solving their
+  /// compliance columns ahead (PatientScene::Prefetch).
   std::vector<int> CalcNodesAhead(int t, const NeedleView& needle, const Eigen::Matrix3Xd& x,
                                   const NeedleCouplingState& state, double distance) const;
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "common/core/error.h"
 #include "common/mesh/mesh_adjacency.h"
@@ -152,13 +153,16 @@ PatientScene::PatientScene(const PatientSceneConfig& config, const TetMesh& live
   skin_body_ = std::make_unique<FemConstraintBody>(*skin_solver_, state_.skin);
   if (state_.beam_needle)
     needle_body_ = std::make_unique<BeamNeedleBody>(*model_->beam_needle(), *state_.beam_needle);
-  // the columns the first steps need (the rib contacts at rest) before the first, timed step
-  Prefetch();
+  // the columns the first steps need (the rib contacts at rest) before the first, timed step,
+  // all of them
+  PrefetchUpTo(std::numeric_limits<int>::max());
 }
 
 PatientScene::~PatientScene() = default;
 
-int PatientScene::Prefetch() {
+int PatientScene::Prefetch() { return PrefetchUpTo(kMaxPrefetchNodes); }
+
+int PatientScene::PrefetchUpTo(int max_new_nodes) {
   const PatientSceneConfig& config = model_->config();
   if (!config.liver_rest_compliance) return 0;
   std::vector<int> nodes;
@@ -176,7 +180,7 @@ int PatientScene::Prefetch() {
           nodes.push_back(node);
           break;
         }
-  return nodes.empty() ? 0 : solver_.compliance().Prefetch(*liver_body_, nodes);
+  return nodes.empty() ? 0 : solver_.compliance().Prefetch(*liver_body_, nodes, max_new_nodes);
 }
 
 int PatientScene::AddRibContacts(ConstraintSet& set, int liver_body) {

@@ -157,6 +157,38 @@ TEST(ComplianceTest, KeyedPointsReuseColumnsWhileComplianceUnchanged) {
   EXPECT_LE((W3 - expected).norm(), kAgreement * expected.norm());
 }
 
+// Prefetch solves node columns ahead of the Assemble that uses them, at most max_new_nodes a
+// call (the first of the list not cached), and the Assemble then solves nothing and gives the
+// W of an assembler that solved them itself; a compliance change drops what was prefetched
+TEST(ComplianceTest, PrefetchedNodesAreNotSolvedAgain) {
+  TwoBodies bodies;
+  ConstraintSet set;
+  bodies.Build(set, 100, 7);
+  ComplianceAssembler ahead, plain;
+  const std::vector<int> nodes_a{4, 3, 2, 1, 0, 3}, nodes_b{0, 1, 2, 3};
+  EXPECT_EQ(ahead.Prefetch(bodies.a, nodes_a, 2), 6);  // 4 and 3
+  EXPECT_EQ(ahead.Prefetch(bodies.a, nodes_a, 2), 6);  // 2 and 1
+  EXPECT_EQ(ahead.Prefetch(bodies.a, nodes_a, 2), 3);  // 0
+  EXPECT_EQ(ahead.Prefetch(bodies.a, nodes_a, 2), 0);
+  EXPECT_EQ(ahead.Prefetch(bodies.b, nodes_b), 12);
+  Eigen::MatrixXd W_ahead, W_plain;
+  ahead.Assemble(set, W_ahead);
+  EXPECT_EQ(ahead.stats().num_solved_columns, 0);
+  plain.Assemble(set, W_plain);
+  EXPECT_GT(plain.stats().num_solved_columns, 0);
+  EXPECT_LE((W_ahead - W_plain).norm(), kAgreement * W_plain.norm());
+  const Eigen::MatrixXd expected = DenseW(set, bodies.a, bodies.b);
+  EXPECT_LE((W_ahead - expected).norm(), kAgreement * expected.norm());
+  // body a's compliance changes: its prefetched columns are stale and solved again
+  bodies.a.set_time_step(0.02);
+  EXPECT_EQ(ahead.Prefetch(bodies.a, nodes_a), 15);
+  EXPECT_EQ(ahead.Prefetch(bodies.b, nodes_b), 0);
+  ahead.Assemble(set, W_ahead);
+  EXPECT_EQ(ahead.stats().num_solved_columns, 0);
+  const Eigen::MatrixXd changed = DenseW(set, bodies.a, bodies.b);
+  EXPECT_LE((W_ahead - changed).norm(), kAgreement * changed.norm());
+}
+
 TEST(ComplianceTest, MovingKeyedPointNeedsNoSolveWithinKnownNodes) {
   // a needle tip moving inside a tet: same nodes, new weights every step
   TwoBodies bodies;
