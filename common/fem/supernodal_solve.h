@@ -31,41 +31,48 @@ void SupernodalSolveInPlace(const SupernodalFactorView& view, const Scalar* x,
                             Eigen::Matrix<Scalar, Eigen::Dynamic, 1>& gathered) {
   using Block = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
   using BlockMap = Eigen::Map<const Block, 0, Eigen::OuterStride<>>;
+  // supernode j: its first column k1, its width, the number of rows below its columns, its
+  // nsrow x nscol block of L (column-major, its own columns' rows first), the rows below
+  struct Supernode {
+    int k1, nscol, below;
+    BlockMap L;
+    const int* rows;
+  };
+  const auto supernode = [&](int j) {
+    const int k1 = view.super[j], nscol = view.super[j + 1] - k1;
+    const int psi = view.pi[j], nsrow = view.pi[j + 1] - psi;
+    if (gathered.size() < nsrow - nscol) gathered.resize(nsrow - nscol);
+    return Supernode{k1, nscol, nsrow - nscol,
+                     BlockMap(x + view.px[j], nsrow, nscol, Eigen::OuterStride<>(nsrow)),
+                     view.s + psi + nscol};
+  };
   const Eigen::Index k = Y.cols();
   // L y = b, supernode by supernode
   for (int j = 0; j < view.nsuper; ++j) {
-    const int k1 = view.super[j], nscol = view.super[j + 1] - k1;
-    const int psi = view.pi[j], nsrow = view.pi[j + 1] - psi, below = nsrow - nscol;
-    const BlockMap L(x + view.px[j], nsrow, nscol, Eigen::OuterStride<>(nsrow));
-    const int* rows = view.s + psi + nscol;
-    if (gathered.size() < below) gathered.resize(below);
+    const Supernode sn = supernode(j);
     for (Eigen::Index c = 0; c < k; ++c) {
       auto y = Y.col(c);
-      auto y1 = y.segment(k1, nscol);
+      auto y1 = y.segment(sn.k1, sn.nscol);
       // a sparse right-hand side (a unit column: a constraint point's compliance) is nonzero
       // only on the supernodes of its elimination-tree path; the others are skipped (exact)
       if (y1.isZero(0)) continue;
-      L.topRows(nscol).template triangularView<Eigen::Lower>().solveInPlace(y1);
-      if (below == 0) continue;
-      gathered.head(below).noalias() = L.bottomRows(below) * y1;
-      for (int i = 0; i < below; ++i) y[rows[i]] -= gathered[i];
+      sn.L.topRows(sn.nscol).template triangularView<Eigen::Lower>().solveInPlace(y1);
+      if (sn.below == 0) continue;
+      gathered.head(sn.below).noalias() = sn.L.bottomRows(sn.below) * y1;
+      for (int i = 0; i < sn.below; ++i) y[sn.rows[i]] -= gathered[i];
     }
   }
   // L' z = y, backwards: the rows below a supernode are final when it is reached
   for (int j = view.nsuper - 1; j >= 0; --j) {
-    const int k1 = view.super[j], nscol = view.super[j + 1] - k1;
-    const int psi = view.pi[j], nsrow = view.pi[j + 1] - psi, below = nsrow - nscol;
-    const BlockMap L(x + view.px[j], nsrow, nscol, Eigen::OuterStride<>(nsrow));
-    const int* rows = view.s + psi + nscol;
-    if (gathered.size() < below) gathered.resize(below);
+    const Supernode sn = supernode(j);
     for (Eigen::Index c = 0; c < k; ++c) {
       auto y = Y.col(c);
-      auto y1 = y.segment(k1, nscol);
-      if (below > 0) {
-        for (int i = 0; i < below; ++i) gathered[i] = y[rows[i]];
-        y1.noalias() -= L.bottomRows(below).transpose() * gathered.head(below);
+      auto y1 = y.segment(sn.k1, sn.nscol);
+      if (sn.below > 0) {
+        for (int i = 0; i < sn.below; ++i) gathered[i] = y[sn.rows[i]];
+        y1.noalias() -= sn.L.bottomRows(sn.below).transpose() * gathered.head(sn.below);
       }
-      L.topRows(nscol).template triangularView<Eigen::Lower>().transpose().solveInPlace(y1);
+      sn.L.topRows(sn.nscol).template triangularView<Eigen::Lower>().transpose().solveInPlace(y1);
     }
   }
 }
