@@ -26,17 +26,33 @@ int ComplianceAssembler::Prefetch(ConstraintBody& body, const std::vector<int>& 
         std::find(pending_nodes_.begin(), pending_nodes_.end(), node) == pending_nodes_.end())
       pending_nodes_.push_back(node);
   }
-  if (pending_nodes_.empty()) return 0;
-  const int n = body.num_nodes(), k = static_cast<int>(pending_nodes_.size());
+  return SolvePending(body, cache, nullptr);
+}
+
+int ComplianceAssembler::SolvePending(const ConstraintBody& body, BodyCache& cache,
+                                      const ConstraintSet* set) {
+  const int num_nodes = static_cast<int>(pending_nodes_.size());
+  const int k = num_nodes + (set != nullptr ? static_cast<int>(pending_points_.size()) : 0);
+  if (k == 0) return 0;
+  const int n = body.num_nodes();
   std::vector<Eigen::Triplet<double>> triplets;
-  for (int j = 0; j < k; ++j)
+  for (int j = 0; j < num_nodes; ++j)
     for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * pending_nodes_[j] + c, 3 * j + c, 1.0);
+  for (int j = num_nodes; j < k; ++j) {
+    const ConstraintPoint& pt = set->point(pending_points_[j - num_nodes]);
+    for (int m = 0; m < pt.num_nodes; ++m) {
+      const int node = set->point_nodes()[pt.first_node + m];
+      const double w = set->point_weights()[pt.first_node + m];
+      for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * node + c, 3 * j + c, w);
+    }
+  }
   Eigen::SparseMatrix<double> rhs(3 * n, 3 * k);
   rhs.setFromTriplets(triplets.begin(), triplets.end());
   body.ApplyCompliance(rhs, solved_);
   NSIM_CHECK(solved_.rows() == 3 * n && solved_.cols() == 3 * k, "ApplyCompliance returned ",
              solved_.rows(), " x ", solved_.cols(), ", expected ", 3 * n, " x ", 3 * k);
-  for (int j = 0; j < k; ++j) cache.nodes[pending_nodes_[j]].Y = solved_.middleCols(3 * j, 3);
+  for (int j = 0; j < num_nodes; ++j)
+    cache.nodes[pending_nodes_[j]].Y = solved_.middleCols(3 * j, 3);
   return 3 * k;
 }
 
@@ -95,34 +111,11 @@ void ComplianceAssembler::Assemble(const ConstraintSet& set, Eigen::MatrixXd& W)
     }
 
     // one multi-column solve: 3 unit columns per pending node, then 3 per unkeyed point
-    const int k = static_cast<int>(pending_nodes_.size() + pending_points_.size());
-    if (k > 0) {
-      std::vector<Eigen::Triplet<double>> triplets;
-      for (size_t j = 0; j < pending_nodes_.size(); ++j)
-        for (int c = 0; c < 3; ++c)
-          triplets.emplace_back(3 * pending_nodes_[j] + c, 3 * static_cast<int>(j) + c, 1.0);
-      for (size_t j = 0; j < pending_points_.size(); ++j) {
-        const ConstraintPoint& pt = set.point(pending_points_[j]);
-        const int col = 3 * static_cast<int>(pending_nodes_.size() + j);
-        for (int m = 0; m < pt.num_nodes; ++m) {
-          const int node = set.point_nodes()[pt.first_node + m];
-          const double w = set.point_weights()[pt.first_node + m];
-          for (int c = 0; c < 3; ++c) triplets.emplace_back(3 * node + c, col + c, w);
-        }
-      }
-      Eigen::SparseMatrix<double> rhs(3 * n, 3 * k);
-      rhs.setFromTriplets(triplets.begin(), triplets.end());
-      body.ApplyCompliance(rhs, solved_);
-      NSIM_CHECK(solved_.rows() == 3 * n && solved_.cols() == 3 * k, "ApplyCompliance returned ",
-                 solved_.rows(), " x ", solved_.cols(), ", expected ", 3 * n, " x ", 3 * k);
-      stats_.num_solved_columns += 3 * k;
-      for (size_t j = 0; j < pending_nodes_.size(); ++j)
-        cache.nodes[pending_nodes_[j]].Y = solved_.middleCols(3 * j, 3);
-      for (size_t j = 0; j < pending_points_.size(); ++j) {
-        const int p = pending_points_[j];
-        point_storage_[p] = solved_.middleCols(3 * (pending_nodes_.size() + j), 3);
-        point_columns_[p] = &point_storage_[p];
-      }
+    stats_.num_solved_columns += SolvePending(body, cache, &set);
+    for (size_t j = 0; j < pending_points_.size(); ++j) {
+      const int p = pending_points_[j];
+      point_storage_[p] = solved_.middleCols(3 * (pending_nodes_.size() + j), 3);
+      point_columns_[p] = &point_storage_[p];
     }
 
     // keyed points: Y_p = sum_k w_k C e_{n_k} from the node columns

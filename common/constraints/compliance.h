@@ -82,6 +82,11 @@ class ComplianceAssembler {
     int changes_in_a_row = 0;                  // assembles that found a new compliance_version
   };
 
+  // solves 3 unit columns per node of pending_nodes_, then (with a set) 3 weighted columns per
+  // point of pending_points_, into solved_ in that order; caches the node columns; returns
+  // the number of columns solved
+  int SolvePending(const ConstraintBody& body, BodyCache& cache, const ConstraintSet* set);
+
   std::unordered_map<std::uint64_t, BodyCache> caches_;  // by body uid
   std::vector<const Columns*> point_columns_;            // per point of the set
   std::vector<Columns> point_storage_;                   // Y_p of points not aliasing a node

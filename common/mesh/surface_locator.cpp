@@ -2,44 +2,17 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
-#include <map>
 
 #include "common/core/error.h"
+#include "common/mesh/mesh_adjacency.h"
 #include "common/mesh/triangle_geometry.h"
 
 namespace nsim {
 
-namespace {
-
-// per surface triangle, a tetrahedron it is a face of, by matching sorted node triples (-1: none)
-std::vector<int> FindOwningTets(const TetMesh& mesh) {
-  std::map<std::array<int, 3>, int> index;
-  for (int i = 0; i < static_cast<int>(mesh.surface.size()); ++i) {
-    std::array<int, 3> key{mesh.surface[i][0], mesh.surface[i][1], mesh.surface[i][2]};
-    std::sort(key.begin(), key.end());
-    index.emplace(key, i);
-  }
-  std::vector<int> owners(mesh.surface.size(), -1);
-  static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  for (int e = 0; e < mesh.num_tets(); ++e) {
-    const Eigen::Vector4i& t = mesh.tets[e];
-    for (const auto& f : kFace) {
-      std::array<int, 3> key{t[f[0]], t[f[1]], t[f[2]]};
-      std::sort(key.begin(), key.end());
-      const auto it = index.find(key);
-      if (it != index.end()) owners[it->second] = e;
-    }
-  }
-  return owners;
-}
-
-}  // namespace
-
 SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x)
-    : SurfaceLocator(mesh, x, FindOwningTets(mesh)) {}
+    : SurfaceLocator(mesh, x, CalcMeshAdjacency(mesh).surface_tets) {}
 
 SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x,
                                const std::vector<int>& surface_tets)
