@@ -8,6 +8,7 @@
 #include "common/core/clock.h"
 #include "common/core/error.h"
 #include "common/core/interrupt.h"
+#include "common/core/thread_priority.h"
 #include "common/scene/lockstep_targets.h"
 #include "direct_sim/controller_watch.h"
 
@@ -73,6 +74,13 @@ class PatientPump {
       }
     }
     PublishStatus(RunState::kRunning, "running");
+    // the loop's thread in the realtime class for the steps (run.rt_priority); the DDS threads
+    // and the liver's refresh worker, started before, keep theirs
+    const FifoScope fifo(run_.mode == RunMode::kRealtime ? run_.rt_priority : 0);
+    if (!fifo.error().empty())
+      std::cerr << "direct_sim run: run.rt_priority: " << fifo.error()
+                << "; the loop runs in the normal class\n";
+    info_.loop_class = ThisThreadPolicyName();
     const int64_t steps = StepCount();
     const double start = MonotonicSeconds();
     double next_status = start + run_.status_period;

@@ -40,6 +40,9 @@ void DeclareOptions(CommandLine& cli) {
       .Option("duration", "S", "simulated time (s), overrides run.duration")
       .Choice("mode", "realtime|lockstep", "overrides run.mode", {"realtime", "lockstep"})
       .Option("latency-steps", "N", "lockstep latency in steps, overrides run.latency_steps")
+      .Option("rt-priority", "N",
+              "realtime: SCHED_FIFO priority (1-99) of the loop's thread, 0 = normal class; "
+              "overrides run.rt_priority")
       .Option("vtk-every", "N", "VTK snapshots every N steps, overrides run.vtk_every")
       .Option("seed", "N", "random seed (breathing), overrides random_seed")
       .Option("young-modulus", "PA",
@@ -69,6 +72,7 @@ void ApplyOptions(const CommandLine& cli, DirectScenario* s) {
     s->run.mode = cli.GetString("mode") == "realtime" ? RunMode::kRealtime : RunMode::kLockstep;
   if (cli.GetFlag("in-process")) s->run.mode = RunMode::kLockstep;
   if (cli.Has("latency-steps")) s->run.latency_steps = static_cast<int>(cli.GetInt("latency-steps"));
+  if (cli.Has("rt-priority")) s->run.rt_priority = static_cast<int>(cli.GetInt("rt-priority"));
   if (cli.Has("vtk-every")) s->run.vtk_every = static_cast<int>(cli.GetInt("vtk-every"));
   if (cli.Has("seed")) {
     const long seed = cli.GetInt("seed");
@@ -100,6 +104,7 @@ PatientRunInfo MakeInfo(const DirectScenario& s, bool in_process) {
   info.duration = s.run.duration;
   info.realtime = s.run.mode == RunMode::kRealtime;
   info.latency_steps = s.run.latency_steps;
+  info.rt_priority = s.run.rt_priority;
   info.transport = in_process ? "in_process" : "dds";
   return info;
 }

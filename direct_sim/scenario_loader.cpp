@@ -101,6 +101,9 @@ void RunConfig::Validate() const {
     throw InputError(Str("run.status_period must be > 0 (s), got ", status_period));
   if (!(takeover_timeout > 0))
     throw InputError(Str("run.takeover_timeout must be > 0 (s), got ", takeover_timeout));
+  if (rt_priority < 0 || rt_priority > 99)
+    throw InputError(Str("run.rt_priority must be 0 (the normal class) or a SCHED_FIFO priority "
+                         "in [1, 99], got ", rt_priority));
   // Upper bounds: a simulated hour is 180,000 steps at 20 ms (the step count is bounded
   // separately); a latency of 1000 steps is 20 s, more than the run's breathing cycles; a
   // peer silent for 10 min (lockstep) or an hour (start) is gone; statuses every minute at

@@ -43,6 +43,11 @@ struct RunConfig {
   /// within this time (s wall), > 0: the robot holds and, in lockstep, the insertion waits for
   /// it; after it the loss is final (the robot holds to the end, exit controller_lost).
   double takeover_timeout = 30.0;
+  /// Realtime: the SCHED_FIFO priority (1-99) of the loop's thread, so that no thread of the
+  /// normal class (the liver's factor refresh, other programs) preempts a step; 0 (the default):
+  /// the normal class. Needs CAP_SYS_NICE or RLIMIT_RTPRIO (`ulimit -r`); when refused, the run
+  /// says why and goes on in the normal class. Ignored in lockstep.
+  int rt_priority = 0;
 
   /// Throws InputError "run.<key> ...".
   void Validate() const;

@@ -134,7 +134,8 @@ void ReadRobot(const YamlReader& node, RobotDriverConfig* r) {
 
 void ReadRun(const YamlReader& node, RunConfig* run) {
   node.CheckKeys({"duration", "mode", "latency_steps", "lockstep_timeout", "start_timeout",
-                  "vtk_every", "video", "view_every", "status_period", "takeover_timeout"});
+                  "vtk_every", "video", "view_every", "status_period", "takeover_timeout",
+                  "rt_priority"});
   node.Read("duration", &run->duration);
   const int mode = node.ReadChoice("mode", {"realtime", "lockstep"});
   if (mode >= 0) run->mode = mode == 0 ? RunMode::kRealtime : RunMode::kLockstep;
@@ -146,6 +147,7 @@ void ReadRun(const YamlReader& node, RunConfig* run) {
   node.Read("view_every", &run->view_every);
   node.Read("status_period", &run->status_period);
   node.Read("takeover_timeout", &run->takeover_timeout);
+  node.Read("rt_priority", &run->rt_priority);
 }
 
 void ReadView(const YamlReader& node, ViewerConfig* v) {

@@ -5,7 +5,7 @@
 #
 #   scripts/two_hosts.sh [scenario.yaml] [--loss PCT] [--mode lockstep|realtime]
 #                        [--latency-steps N] [--duration S] [--prediction on|off]
-#                        [--secure [DIR]] [--no-build]
+#                        [--rt-priority N] [--secure [DIR]] [--no-build]
 #
 # --loss PCT drops PCT % of the packets arriving in each namespace (nftables input rule
 # "numgen random mod 100 < PCT drop"); DDS's reliable protocol resends them. --mode lockstep
@@ -15,11 +15,13 @@
 # results/two_hosts_<date>/ (or $NSIM_RESULTS_DIR): direct/, inverse/, the logs and summary.json
 # (merged, like scripts/run.sh). Namespaces, veth pair and rules are removed on exit, and both
 # processes are killed by PID. --secure [DIR]: DDS Security, as in scripts/run.sh (without DIR,
-# $NSIM_CREDENTIALS_DIR or results/credentials, made when missing).
+# $NSIM_CREDENTIALS_DIR or results/credentials, made when missing). --rt-priority N: realtime,
+# direct_sim's loop thread in SCHED_FIFO at N (run.rt_priority; this script runs as root).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 scenario="$root/configs/scenarios/liver_test_coarse.yaml"
 loss=0; latency=1; mode=lockstep; duration=""; prediction=on; build=1; secure=""; secure_default=0
+rt_priority=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --secure=*) secure="${1#--secure=}"; shift ;;
@@ -35,8 +37,9 @@ while [ $# -gt 0 ]; do
     --mode) mode="$2"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
     --prediction) prediction="$2"; shift 2 ;;
+    --rt-priority) rt_priority="$2"; shift 2 ;;
     --no-build) build=0; shift ;;
-    -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "two_hosts: unknown option '$1' (see --help)" >&2; exit 2 ;;
     *) scenario="$(realpath "$1")"; shift ;;
   esac
@@ -96,6 +99,7 @@ inv=$!; pids+=("$inv")
 direct_args=(--mode "$mode" --no-video)
 [ "$mode" = lockstep ] && direct_args+=(--latency-steps "$latency")
 [ -n "$duration" ] && direct_args+=(--duration "$duration")
+[ -n "$rt_priority" ] && direct_args+=(--rt-priority "$rt_priority")
 timeout -s KILL 900 ip netns exec "$ns1" "$bin/direct_sim" run --config "$scenario" --out "$out/direct" \
   "${direct_args[@]}" "${common[@]}" > "$out/direct.log" 2>&1 &
 dir=$!; pids+=("$dir")

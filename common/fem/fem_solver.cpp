@@ -1,8 +1,6 @@
 #include "common/fem/fem_solver.h"
 
 #include <sched.h>
-#include <sys/resource.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -14,6 +12,7 @@
 #include <utility>
 
 #include "common/core/error.h"
+#include "common/core/thread_priority.h"
 #include "common/fem/cholmod_factor.h"
 #include "common/fem/fork_join.h"
 #include "common/fem/single_precision_factor.h"
@@ -177,11 +176,13 @@ struct FemSolver::Impl {
   }
 
   void WorkerLoop() {
-    // the lowest priority (nice 19; Linux sets it per thread): on a core that a step also
-    // wants, the step goes first and the factorization takes the time the steps leave (a
-    // realtime loop's wait for its next period); on a free core it runs at full speed. A
-    // worker that is late only makes its adopting step wait (the schedule does not change).
-    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
+    // the lowest class (SCHED_IDLE, else nice 19): on a core that a step also wants, the step
+    // goes first and the factorization takes the time the steps leave (a realtime loop's wait
+    // for its next period); on a free core it runs at full speed. A worker that is late only
+    // makes its adopting step wait (the schedule does not change). Set explicitly, so that a
+    // worker started by a SCHED_FIFO thread does not inherit its class
+    // (common/core/thread_priority.h has what the fair class still gives it on one core).
+    LowerThisThreadToIdle();
     std::unique_lock<std::mutex> lock(mutex);
     for (;;) {
       wake.wait(lock, [this] { return job_pending || quit; });

@@ -116,6 +116,9 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
   if (!info.fault.empty()) j["fault"] = info.fault;  // why the watchdog stopped the run
   j["mode"] = info.realtime ? "realtime" : "lockstep";
   j["transport"] = info.transport;
+  // realtime only: the loop thread's scheduling class (run.rt_priority) and what was asked
+  if (info.realtime && !info.loop_class.empty())
+    j["loop_thread"] = {{"class", info.loop_class}, {"rt_priority", info.rt_priority}};
   // only in secured runs: the summary of any other run stays as it was
   if (!info.dds_identity.empty()) j["dds_security"] = {{"identity", info.dds_identity}};
   j["controller"] = c.controller;

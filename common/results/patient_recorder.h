@@ -29,6 +29,8 @@ struct PatientRunInfo {
   double duration = 0.0;       ///< requested simulated time (s)
   bool realtime = false;       ///< realtime (wall-clock paced) or lockstep
   int latency_steps = 0;       ///< lockstep latency d (steps)
+  int rt_priority = 0;         ///< realtime: the loop thread's SCHED_FIFO priority asked for
+  std::string loop_class;      ///< realtime: the class the loop ran in ("fifo", "other", ...)
   std::string transport = "dds";  ///< "dds" or "in_process"
   std::string dds_identity;  ///< the DDS Security identity (--secure); empty: not secured
   /// completed, diverged (a solver failed), implausible_state (the physics watchdog stopped the

@@ -23,6 +23,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
 #include <memory>
@@ -30,6 +32,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/core/thread_priority.h"
 #include "common/scene/patient_scene.h"
 #include "common/scene/physics_watchdog.h"
 #include "common/scene/robot_driver.h"
@@ -151,18 +154,25 @@ BENCHMARK(BM_DirectSceneFirstStep)
 void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
                          bool paced = false, int adopt_delay = 0,
                          FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
-                         bool prefetch = true) {
+                         bool prefetch = true, int fifo_priority = 0) {
   Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption, slice,
             prefetch);
   while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
          f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
+  // the loop's thread in SCHED_FIFO (direct_sim's run.rt_priority) for the timed steps; the
+  // refresh worker, started with the scene, stays in SCHED_IDLE
+  const FifoScope fifo(fifo_priority);
+  if (!fifo.error().empty()) {
+    state.SkipWithError(fifo.error().c_str());
+    return;
+  }
   StepTimes times(static_cast<size_t>(state.max_iterations));
   StepTimes between(static_cast<size_t>(state.max_iterations));
   double prefetch_columns = 0;
   std::vector<double> swap_ms, request_ms;
   double swaps = 0, waits = 0, refactorizations = 0, cg = 0, steps = 0, rows = 0, lags = 0;
-  double slice_wait = 0, sliced_steps = 0;
+  double slice_wait = 0, sliced_steps = 0, preempted = 0;
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(f.scenario.scene.time_step));
   auto next = std::chrono::steady_clock::now();
@@ -171,10 +181,14 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
       next += period;
       std::this_thread::sleep_until(next);
     }
+    rusage before{}, after{};
+    getrusage(RUSAGE_THREAD, &before);
     const SceneStepReport report = times.Time([&] {
       f.s = std::min(f.s + 0.01 * f.scenario.scene.time_step, f.plan.total_travel());
       return f.scene->Step(f.plan.CalcFlangePose(f.s));
     });
+    getrusage(RUSAGE_THREAD, &after);
+    preempted += after.ru_nivcsw > before.ru_nivcsw;
     // the work between steps, timed apart (realtime: in the period's time left after the step)
     prefetch_columns += between.Time([&] { return f.scene->Prefetch(); });
     const FemStepStats& liver = report.liver_stats;
@@ -207,6 +221,8 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
   state.counters["sliced_steps"] = sliced_steps / steps;
   state.counters["slice_ms"] = sliced_steps > 0 ? 1e3 * slice_wait / sliced_steps : 0.0;
   state.counters["rows"] = rows / steps;
+  // steps the scheduler took the core from at least once (another thread ran meanwhile)
+  state.counters["preempted_steps"] = preempted / steps;
   state.counters["liver_depth_mm"] = 1e3 * f.scene->GetTissueStatus(kLiverTissue).depth;
 }
 
@@ -239,6 +255,14 @@ void RegisterSequences() {
   benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady", [](benchmark::State& s) {
     DirectSceneSequence(s, true, true, true, 0, FactorAdoption::kWhenReady);
   })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  // the same with the loop's thread in SCHED_FIFO (priority 10; direct_sim's run.rt_priority):
+  // on one core no step is preempted by the refresh (skipped where the class is not permitted)
+  benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady/Fifo",
+                               [](benchmark::State& s) {
+                                 DirectSceneSequence(s, true, true, true, 0,
+                                                     FactorAdoption::kWhenReady, -1.0, true, 10);
+                               })
+      ->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
   // the steps back to back with when_ready adoption, with refactor_slice 4 ms and without: on
   // one CPU (taskset -c N) the first spreads each refresh over the steps, the second leaves the
   // worker only what the steps leave, little when they run back to back; on two CPUs the two

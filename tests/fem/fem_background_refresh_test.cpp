@@ -16,6 +16,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <map>
 #include <functional>
 #include <memory>
 #include <string>
@@ -23,6 +25,7 @@
 #include <vector>
 
 #include "common/core/error.h"
+#include "common/core/thread_priority.h"
 #include "common/fem/fem_solver.h"
 #include "common/fem/fork_join.h"
 #include "common/mesh/gmsh_reader.h"
@@ -365,6 +368,48 @@ TEST(FemBackgroundRefreshTest, SlicesGiveTheWorkerTheOnlyCpuWithoutChangingTheRu
 // ---- element passes on several threads (FemConfig::element_threads) ----
 
 // every part runs once per Run, part 0 on the calling thread, whatever the number of parts
+// the threads of this process in each scheduling class (policy -> count), from /proc/self/task
+std::map<int, int> CountThreadClasses() {
+  std::map<int, int> count;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/task")) {
+    const int policy = sched_getscheduler(std::stoi(entry.path().filename().string()));
+    if (policy >= 0) ++count[policy];
+  }
+  return count;
+}
+
+// The refresh worker lowers itself to SCHED_IDLE (steps first on a shared core), also when the
+// thread that builds the solver is in the realtime class (direct_sim's run.rt_priority), whose
+// class a new thread would otherwise inherit.
+TEST(FemBackgroundRefreshTest, TheWorkerRunsInTheIdleClassWhateverItsCreatorsClass) {
+  for (int creator_priority : {0, 5}) {
+    std::thread creator([creator_priority] {
+      const FifoScope fifo(creator_priority);
+      if (creator_priority > 0 && !fifo.raised()) {
+        std::printf("skipped the SCHED_FIFO creator: %s\n", fifo.error().c_str());
+        return;
+      }
+      const std::map<int, int> before = CountThreadClasses();
+      const auto count = [&before](const std::map<int, int>& now, int policy) {
+        const auto b = before.find(policy);
+        const auto n = now.find(policy);
+        return (n == now.end() ? 0 : n->second) - (b == before.end() ? 0 : b->second);
+      };
+      LiverRun run(LiverConfig());
+      // the worker sets its class as it starts: wait for it (bounded)
+      std::map<int, int> now = CountThreadClasses();
+      for (int i = 0; i < 500 && count(now, SCHED_IDLE) < 1; ++i) {
+        std::this_thread::sleep_for(milliseconds(10));
+        now = CountThreadClasses();
+      }
+      EXPECT_EQ(count(now, SCHED_IDLE), 1) << "creator priority " << creator_priority;
+      EXPECT_EQ(count(now, SCHED_FIFO), 0) << "creator priority " << creator_priority;
+      EXPECT_EQ(ThisThreadPolicyName(), creator_priority > 0 ? "fifo" : "other");
+    });
+    creator.join();
+  }
+}
+
 TEST(ForkJoinTest, RunsEveryPartOncePerCall) {
   for (int parts : {1, 2, 3, 8}) {
     ForkJoin pool(parts);

@@ -56,6 +56,7 @@ TEST(ScenarioLoaderTest, LoadsTheDefaultScenario) {
   EXPECT_TRUE(s.scene.liver_rest_compliance);
   EXPECT_EQ(s.robot.kind, RobotKind::kCartesian);
   EXPECT_EQ(s.run.mode, RunMode::kRealtime);
+  EXPECT_EQ(s.run.rt_priority, 0);  // the normal class unless asked
   EXPECT_EQ(s.safety.max_linear_speed, s.robot.cartesian.max_linear_speed);  // gate = robot limits
 }
 
