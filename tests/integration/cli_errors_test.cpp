@@ -27,7 +27,8 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
   const std::string bad_csv = (dir / "bad.csv").string();
   std::ofstream(bad_csv) << "t,m0_x,m0_y,m0_z\n0,1,2,3\n0.1,1,oops,3\n";
   const std::string gap_csv = (dir / "gap.csv").string();
-  std::ofstream(gap_csv) << "t,m0_x,m0_y,m0_z\n0,1,2,3\n0.2,1,2,3\n1000000.2,1,2,3\n1000000.4,1,2,3\n";
+  std::ofstream(gap_csv)
+      << "t,m0_x,m0_y,m0_z\n0,1,2,3\n0.2,1,2,3\n1000000.2,1,2,3\n1000000.4,1,2,3\n";
   const std::string long_partition(65535, 'p');
   const std::vector<Case> cases = {
       {{kBin + "/direct_sim"}, 2, "usage: direct_sim"},
@@ -92,6 +93,12 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
         "--check", "--quiet"},
        2,
        "dds.partition must be 1..64 characters"},
+      // the loop thread's realtime class: a priority outside SCHED_FIFO's range names the key
+      {{kBin + "/direct_sim", "run", "--config",
+        NSIM_SOURCE_DIR "/configs/scenarios/liver_test_coarse.yaml", "--rt-priority", "100",
+        "--check", "--quiet"},
+       2,
+       "run.rt_priority must be 0 (the normal class) or a SCHED_FIFO priority in [1, 99], got 100"},
       // a 1e6 s gap in a replayed stream: refused with its line, not slept through
       {{kBin + "/direct_sim", "replay", "--markers", gap_csv, "--wait-readers", "0", "--quiet"},
        2,
@@ -117,9 +124,9 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
        2,
        "needle.liver.tip_compliance must be >= 0 (m/N)"},
       {{kBin + "/inverse_sim", "run", "--config",
-        testing::WriteEditedScenario(dir, "lateral_compliance.yaml", "liver_test_coarse.yaml",
-                                     {{"  point_spacing: 0.013\n",
-                                       "  point_spacing: 0.013\n  lateral_compliance: 5.0\n"}})
+        testing::WriteEditedScenario(
+            dir, "lateral_compliance.yaml", "liver_test_coarse.yaml",
+            {{"  point_spacing: 0.013\n", "  point_spacing: 0.013\n  lateral_compliance: 5.0\n"}})
             .string(),
         "--check", "--quiet"},
        2,
@@ -139,9 +146,9 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
        2,
        "duplicate key prediction.order"},
       {{kBin + "/inverse_sim", "run", "--config",
-        testing::WriteEditedScenario(dir, "mesh_dev.yaml", "liver_test_coarse.yaml",
-                                     {{NSIM_SOURCE_DIR "/configs/meshes/liver_700.msh  # coarser",
-                                       "/dev/zero  # coarser"}})
+        testing::WriteEditedScenario(
+            dir, "mesh_dev.yaml", "liver_test_coarse.yaml",
+            {{NSIM_SOURCE_DIR "/configs/meshes/liver_700.msh  # coarser", "/dev/zero  # coarser"}})
             .string(),
         "--check"},
        2,
