@@ -8,6 +8,24 @@
 
 namespace nsim {
 
+std::vector<int> CalcSurfaceTets(const TetMesh& mesh) {
+  std::map<std::array<int, 3>, int> index;
+  for (int i = 0; i < static_cast<int>(mesh.surface.size()); ++i) {
+    std::array<int, 3> key{mesh.surface[i][0], mesh.surface[i][1], mesh.surface[i][2]};
+    std::sort(key.begin(), key.end());
+    index.emplace(key, i);
+  }
+  std::vector<int> owners(mesh.surface.size(), -1);
+  for (int e = 0; e < mesh.num_tets(); ++e)
+    for (const auto& f : kTetFaces) {
+      std::array<int, 3> key{mesh.tets[e][f[0]], mesh.tets[e][f[1]], mesh.tets[e][f[2]]};
+      std::sort(key.begin(), key.end());
+      const auto it = index.find(key);
+      if (it != index.end()) owners[it->second] = e;
+    }
+  return owners;
+}
+
 MeshAdjacency CalcMeshAdjacency(const TetMesh& mesh) {
   const int n = mesh.num_nodes();
   const int m = mesh.num_tets();

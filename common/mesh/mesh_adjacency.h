@@ -33,6 +33,11 @@ struct MeshAdjacency {
   int NodeDegree(int i) const { return node_tet_offsets[i + 1] - node_tet_offsets[i]; }
 };
 
+/// Per TetMesh::surface triangle, the tet it is a face of (-1: none), by matching sorted node
+/// triples: MeshAdjacency::surface_tets alone, without the rest of CalcMeshAdjacency's work
+/// (2.6 against 11.8 ms on the 2660-node liver, mesh_bench BuildSurfaceLocator/2660).
+std::vector<int> CalcSurfaceTets(const TetMesh& mesh);
+
 /// Computes all adjacency of `mesh` in O(#tets log #tets). Aborts (internal invariant) when a
 /// face is shared by more than two tetrahedra or a surface triangle is no tet face.
 MeshAdjacency CalcMeshAdjacency(const TetMesh& mesh);

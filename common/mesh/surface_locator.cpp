@@ -12,7 +12,7 @@
 namespace nsim {
 
 SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x)
-    : SurfaceLocator(mesh, x, CalcMeshAdjacency(mesh).surface_tets) {}
+    : SurfaceLocator(mesh, x, CalcSurfaceTets(mesh)) {}
 
 SurfaceLocator::SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x,
                                const std::vector<int>& surface_tets)

@@ -29,11 +29,11 @@ struct SurfacePoint {
 class SurfaceLocator {
  public:
   /// Builds over mesh.surface at positions `x` (3 x #nodes, m). Each triangle must be a face of
-  /// some tetrahedron of `mesh` (true for TetMesh surfaces built by this library); the owners
-  /// come from CalcMeshAdjacency, which aborts otherwise.
+  /// some tetrahedron of `mesh` (true for TetMesh surfaces built by this library; checked:
+  /// aborts otherwise); the owners come from CalcSurfaceTets.
   SurfaceLocator(const TetMesh& mesh, const Eigen::Matrix3Xd& x);
   /// The same with the tet owning each surface triangle given (MeshAdjacency::surface_tets,
-  /// #surface triangles): what the first constructor computes (the whole adjacency), most of a
+  /// #surface triangles): what the first constructor computes (CalcSurfaceTets), most of a
   /// build's cost (one core, 2660-node liver: 2.6 ms to build, 0.28 ms with the owners given;
   /// mesh_bench BuildSurfaceLocator*), precomputed once for a locator rebuilt on every step's
   /// positions. A wrong owner is a programming error (checked: aborts).

@@ -74,5 +74,16 @@ TEST(MeshAdjacency, SingleTet) {
   EXPECT_EQ(adj.surface_nodes, (std::vector<int>{0, 1, 2, 3}));
 }
 
+// CalcSurfaceTets (a face map of the surface) against CalcMeshAdjacency's surface_tets (from
+// the sorted faces of all tets), and -1 for a triangle that is no tet's face
+TEST(MeshAdjacency, SurfaceTetsAloneAgreeWithTheFullAdjacency) {
+  TetMesh mesh = MakeBoxTetMesh({4, 3, 5}, {0.3, 0.2, 0.4});
+  const std::vector<int> owners = CalcSurfaceTets(mesh);
+  EXPECT_EQ(owners, CalcMeshAdjacency(mesh).surface_tets);
+  EXPECT_EQ(owners.size(), mesh.surface.size());
+  mesh.surface.push_back(Eigen::Vector3i(0, mesh.num_nodes() - 1, 1));  // spans the box
+  EXPECT_EQ(CalcSurfaceTets(mesh).back(), -1);
+}
+
 }  // namespace
 }  // namespace nsim
