@@ -118,6 +118,7 @@ def growth(rows, prefix):
 # the speed goals, each a benchmark of this run: (what, benchmark, field, goal in ms or None
 # [, run: "current" (one core, the default) or "current-2cores"])
 WHEN_READY = "DirectSceneSequence/Background/Rest/2660/WhenReady"
+PACED_WHEN_READY = "DirectSceneSequence/Paced/Rest/2660/WhenReady"
 PACED_FIFO = "DirectSceneSequence/Paced/Rest/2660/WhenReady/Fifo"
 GOALS = [
     ("patient scene step (2660 nodes, needle in, ribs, breathing), median",
@@ -130,6 +131,11 @@ GOALS = [
      "current-2cores"),
     ("the same on two cores, p99", WHEN_READY, "p99_ms", 7.5, "current-2cores"),
     ("patient scene step paced at 50 Hz (realtime), p99", "DirectSceneSequence/Paced/Rest/2660",
+     "p99_ms", 7.5),
+    ("paced at 50 Hz, refreshes when ready (a realtime direct_sim alone), the refresh held during "
+     "each step (refactor_hold_steps), median", PACED_WHEN_READY, "p50_ms", 5.0),
+    ("the same, p99", PACED_WHEN_READY, "p99_ms", 7.5),
+    ("the same without the hold (refactor_hold_steps 0), p99", PACED_WHEN_READY + "/NoHold",
      "p99_ms", 7.5),
     ("paced at 50 Hz, refreshes when ready, loop thread in SCHED_FIFO (run.rt_priority), median",
      PACED_FIFO, "p50_ms", 5.0),

@@ -42,6 +42,9 @@ void FemConfig::Validate() const {
     throw InputError(Str("fem.refactor_adopt_delay must be >= 1 (steps), got ", refactor_adopt_delay));
   if (!(refactor_slice >= 0.0 && refactor_slice <= 1.0))
     throw InputError(Str("fem.refactor_slice must be in [0, 1] (s), got ", refactor_slice));
+  if (!(refactor_hold_steps >= 0))
+    throw InputError(Str("fem.refactor_hold_steps must be >= 0 (steps), got ", refactor_hold_steps));
+  CheckAtMost(refactor_hold_steps, 1e6, "fem.refactor_hold_steps", "steps");
   if (!(element_threads >= 1 && element_threads <= 8))
     throw InputError(Str("fem.element_threads must be in [1, 8], got ", element_threads));
 }

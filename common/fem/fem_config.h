@@ -106,6 +106,18 @@ struct FemConfig {
   /// adopting step still waits for the rest. Ignored with two CPUs or more (the worker then
   /// runs beside the step) and without background_refactor. 0 (the default): never.
   double refactor_slice = 0.0;
+  /// Steps (>= 0) for which a background refresh in flight is kept off the CPU while the patient
+  /// scene steps (FemSolver::HoldRefresh), when the process may run on one CPU only (as for
+  /// refactor_slice): the step closes the worker's gate (common/fem/worker_gate.h) and the worker
+  /// waits at its next safe point (between the factorization's BLAS calls, microseconds) instead
+  /// of taking the core for a scheduler tick (4 ms at HZ 250) when the fair scheduler hands it
+  /// its share; it then runs only in the time between steps (a paced loop's wait for its next
+  /// period). A refresh requested more than this many steps ago is no longer held, so that
+  /// steps back to back (no time between them) still refresh, at the fair scheduler's pace.
+  /// Nothing else changes: which factor preconditions which step is refactor_adoption's (the
+  /// scheduled adoption's wait opens the gate). Ignored with two CPUs or more and without
+  /// background_refactor. 0 (the default): never.
+  int refactor_hold_steps = 0;
   /// Threads of the element passes (the elastic forces and rotations of each step, and the
   /// matrix-free products of the conjugate gradient), 1-8: the tets are split into this many
   /// fixed, contiguous parts, part 0 on the calling thread and the others on helper threads

@@ -16,6 +16,7 @@
 #include "common/fem/cholmod_factor.h"
 #include "common/fem/fork_join.h"
 #include "common/fem/single_precision_factor.h"
+#include "common/fem/worker_gate.h"
 
 namespace nsim {
 
@@ -86,6 +87,9 @@ struct FemSolver::Impl {
   // the process may run on one CPU only (its affinity mask when the solver was made): the
   // worker then gets the core only while a step waits (FemConfig::refactor_slice)
   bool single_cpu = false;
+  // closed while a step holds the refresh (FemConfig::refactor_hold_steps); the worker waits
+  // at its safe points then
+  WorkerGate gate;
 
   explicit Impl(const FemModel& m)
       : model(m),
@@ -166,6 +170,7 @@ struct FemSolver::Impl {
 
   ~Impl() {
     if (worker.joinable()) {
+      gate.Open();
       {
         std::lock_guard<std::mutex> lock(mutex);
         quit = true;
@@ -183,16 +188,24 @@ struct FemSolver::Impl {
     // worker started by a SCHED_FIFO thread does not inherit its class
     // (common/core/thread_priority.h has what the fair class still gives it on one core).
     LowerThisThreadToIdle();
+    gate.BindToThisThread();
     std::unique_lock<std::mutex> lock(mutex);
     for (;;) {
       wake.wait(lock, [this] { return job_pending || quit; });
-      if (quit) return;
+      if (quit) {
+        WorkerGate::UnbindThisThread();
+        return;
+      }
       job_pending = false;
       if (hold_worker) wake.wait(lock, [this] { return main_waiting || quit; });
-      if (quit) return;
+      if (quit) {
+        WorkerGate::UnbindThisThread();
+        return;
+      }
       const std::chrono::microseconds delay = worker_delay;
       lock.unlock();
       if (delay.count() > 0) std::this_thread::sleep_for(delay);
+      PassWorkerGate();  // a job requested in a held step starts after it
       // background_grad, background_matrix and spare are owned by the worker until job_done
       Assemble(background_grad, background_matrix);
       const bool ok = spare->Factorize(background_matrix);
@@ -217,6 +230,7 @@ struct FemSolver::Impl {
     const auto& tets = model.get_mesh().tets;
     const auto& offsets = model.get_block_offsets();
     for (int e = 0; e < model.num_tets(); ++e) {
+      if (e % 1024 == 0) PassWorkerGate();  // a safe point of the worker (no-op on others)
       const TetRestShape& rest = model.get_rest_shapes()[e];
       const Matrix34d& rg = grads[e];
       const double scale = stiffness_scale * rest.volume;
@@ -364,6 +378,7 @@ struct FemSolver::Impl {
 
   // waits for the job in flight (if any) to finish; returns whether this thread had to wait
   bool WaitForJob(std::unique_lock<std::mutex>& lock) {
+    gate.Open();  // a held step that waits for the worker lets it run
     const bool late = !job_done;
     main_waiting = true;
     wake.notify_all();
@@ -400,11 +415,25 @@ struct FemSolver::Impl {
   double GiveSliceToWorker() {
     if (!single_cpu || !(config.refactor_slice > 0.0) || adopt_step < 0) return 0.0;
     const auto start = std::chrono::steady_clock::now();
+    gate.Open();
     std::unique_lock<std::mutex> lock(mutex);
     if (job_done) return 0.0;
     wake.wait_for(lock, std::chrono::duration<double>(config.refactor_slice),
                   [this] { return job_done; });
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
+  // closes the worker's gate for the coming step when FemConfig::refactor_hold_steps asks for
+  // it: on one CPU, with a worker, unless the refresh in flight was requested more than that
+  // many steps before the coming one; returns whether it closed the gate
+  bool Hold() {
+    if (config.refactor_hold_steps <= 0 || !single_cpu || !worker.joinable()) return false;
+    if (adopt_step >= 0) {
+      const std::int64_t requested = adopt_step - config.refactor_adopt_delay;
+      if (step_index + 1 - requested > config.refactor_hold_steps) return false;
+    }
+    gate.Close();
+    return true;
   }
 
   // drops the job in flight (waiting for the worker): a factor of this step replaces the old one
@@ -684,12 +713,28 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
 void FemSolver::WaitForBackgroundFactorization() {
   Impl& s = *impl_;
   if (!s.worker.joinable() || s.adopt_step < 0) return;
+  s.gate.Open();
   std::unique_lock<std::mutex> lock(s.mutex);
   s.main_waiting = true;
   s.wake.notify_all();
   s.wake.wait(lock, [&s] { return s.job_done; });  // job_done stays set: adopted on schedule
   s.main_waiting = false;
 }
+
+FemSolver::RefreshHold FemSolver::HoldRefresh() {
+  return RefreshHold(impl_->Hold() ? &impl_->gate : nullptr);
+}
+
+FemSolver::RefreshHold::~RefreshHold() {
+  if (gate_) gate_->Open();
+}
+
+FemSolver::RefreshHold::RefreshHold(RefreshHold&& other) noexcept
+    : gate_(std::exchange(other.gate_, nullptr)) {}
+
+long FemSolver::get_refresh_gate_waits() const { return impl_->gate.waits(); }
+
+void FemSolver::AssumeOneCpuForTesting(bool one_cpu) { impl_->single_cpu = one_cpu; }
 
 void FemSolver::HoldWorkerForTesting(bool hold) {
   std::lock_guard<std::mutex> lock(impl_->mutex);

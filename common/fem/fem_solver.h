@@ -123,6 +123,8 @@ struct FemStepStats {
   int inverted_tets = 0;          ///< tets with det F <= kPolarSvdThreshold at the step's x
 };
 
+class WorkerGate;  // common/fem/worker_gate.h
+
 class FemSolver {
  public:
   /// Analyses the pattern, factorizes the rest system A_0 = (1 + h alpha) M + (h beta + h^2) K_0
@@ -158,6 +160,37 @@ class FemSolver {
   void CommitStep(FemState& state, const Eigen::Ref<const Eigen::VectorXd>& dv_correction);
   /// Ends the step without a correction.
   void CommitStep(FemState& state);
+
+  /// Keeps the background refresh off the CPU while it lives (FemConfig::refactor_hold_steps):
+  /// made by HoldRefresh for one step of the scene the solver belongs to (all its bodies and
+  /// constraints), released when it goes out of scope. Empty (holds nothing) when the config,
+  /// the CPU count or the age of the refresh in flight says no.
+  class RefreshHold {
+   public:
+    ~RefreshHold();
+    RefreshHold(RefreshHold&& other) noexcept;
+    RefreshHold(const RefreshHold&) = delete;
+    RefreshHold& operator=(const RefreshHold&) = delete;
+    RefreshHold& operator=(RefreshHold&&) = delete;
+    bool holds() const { return gate_ != nullptr; }
+
+   private:
+    friend class FemSolver;
+    explicit RefreshHold(WorkerGate* gate) : gate_(gate) {}
+    WorkerGate* gate_;
+  };
+  /// Closes the worker's gate (common/fem/worker_gate.h) until the returned hold ends, on a
+  /// process confined to one CPU with refactor_hold_steps > 0 and a background worker, unless
+  /// the refresh in flight was requested more than refactor_hold_steps steps before the coming
+  /// step. Call it before BeginStep; a wait for the worker (the scheduled adoption,
+  /// refactor_slice, WaitForBackgroundFactorization) opens the gate.
+  [[nodiscard]] RefreshHold HoldRefresh();
+  /// Safe points at which the worker waited for a held step to end, since construction
+  /// (timing-dependent; for benchmarks and tests).
+  long get_refresh_gate_waits() const;
+  /// Test hook: treat the process as confined to one CPU (refactor_slice, refactor_hold_steps)
+  /// whatever its affinity mask.
+  void AssumeOneCpuForTesting(bool one_cpu);
 
   /// Waits for a running background factorization (if any) to finish. It is still adopted at
   /// its scheduled step (FemConfig::refactor_adopt_delay steps after the request), not earlier.

@@ -5,6 +5,7 @@
 
 #include "common/core/error.h"
 #include "common/fem/supernodal_solve.h"
+#include "common/fem/worker_gate.h"
 
 namespace nsim {
 
@@ -21,8 +22,14 @@ void SinglePrecisionFactor::Assign(const SupernodalFactorView& view) {
   NSIM_CHECK(super_.front() == 0 && super_.back() == n_, "the supernodes cover columns ",
              super_.front(), " to ", super_.back(), " of ", n_);
   values_.resize(static_cast<size_t>(px_.back()));
-  std::transform(view.x, view.x + values_.size(), values_.begin(),
-                 [](double v) { return static_cast<float>(v); });
+  // in chunks, each a safe point for a background refresh's gate (common/fem/worker_gate.h)
+  constexpr size_t kChunk = size_t{1} << 16;
+  for (size_t begin = 0; begin < values_.size(); begin += kChunk) {
+    PassWorkerGate();
+    const size_t end = std::min(values_.size(), begin + kChunk);
+    std::transform(view.x + begin, view.x + end, values_.begin() + static_cast<std::ptrdiff_t>(begin),
+                   [](double v) { return static_cast<float>(v); });
+  }
   int max_below = 0;
   for (size_t j = 0; j + 1 < super_.size(); ++j)
     max_below = std::max(max_below, (pi_[j + 1] - pi_[j]) - (super_[j + 1] - super_[j]));

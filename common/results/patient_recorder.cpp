@@ -97,6 +97,7 @@ void PatientRecorder::AddStep(const PatientLoop& loop) {
   }
   liver_waits_ += liver.waited_for_worker;
   liver_sliced_steps_ += liver.slice_wait > 0.0;
+  liver_held_steps_ += s.scene.refresh_held;
   liver_slice_s_ += liver.slice_wait;
   row << loop.steps() << ',' << loop.time() << ',' << s.wall_ms << ',' << (s.holding ? 1 : 0)
       << ',' << liver.cg_iterations << ',' << (liver.factor_swapped ? 1 : 0) << ','
@@ -148,7 +149,10 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
       {"refactor_slice_s", sc.liver.refactor_slice},
       {"sliced_steps", liver_sliced_steps_},
       {"mean_slice_ms", liver_sliced_steps_ > 0 ? json(1e3 * liver_slice_s_ / liver_sliced_steps_)
-                                                : json(nullptr)}};
+                                                : json(nullptr)},
+      // on one CPU (patient.liver.refactor_hold_steps): the steps that kept the refresh waiting
+      {"refactor_hold_steps", sc.liver.refactor_hold_steps},
+      {"held_steps", liver_held_steps_}};
   const double rate = info.wall_time > 0 ? loop.steps() / info.wall_time : 0.0;
   const double mean_ms = Summarize(step_ms_).mean;
   j["rate_hz"] = rate;

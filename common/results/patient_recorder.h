@@ -102,6 +102,7 @@ class PatientRecorder {
   uint64_t liver_pcg_iterations_ = 0, liver_refactorized_ = 0, liver_adopted_ = 0;
   uint64_t liver_adoption_lag_ = 0, liver_waits_ = 0;
   uint64_t liver_sliced_steps_ = 0;
+  uint64_t liver_held_steps_ = 0;
   double liver_slice_s_ = 0.0;  // FemStepStats::slice_wait summed
   uint64_t targets_applied_ = 0;  // targets the robot carried out (a held one counted once)
   uint64_t last_applied_ = SensorFrame::kNoTarget;

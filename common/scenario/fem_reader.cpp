@@ -8,7 +8,7 @@ const std::vector<std::string>& FemConfigKeys() {
       "rayleigh_mass",       "rayleigh_stiffness",   "linear_solver",
       "cg_relative_tolerance", "cg_max_iterations",  "refactor_iteration_threshold",
       "background_refactor", "refactor_adopt_delay", "element_threads",
-      "preconditioner_precision", "refactor_adoption", "refactor_slice"};
+      "preconditioner_precision", "refactor_adoption", "refactor_slice", "refactor_hold_steps"};
   return keys;
 }
 
@@ -27,6 +27,7 @@ void ReadFemConfig(const YamlReader& node, FemConfig* fem) {
   node.Read("refactor_adopt_delay", &fem->refactor_adopt_delay);
   node.Read("element_threads", &fem->element_threads);
   node.Read("refactor_slice", &fem->refactor_slice);
+  node.Read("refactor_hold_steps", &fem->refactor_hold_steps);
   const int adoption = node.ReadChoice("refactor_adoption", {"scheduled", "when_ready"});
   if (adoption >= 0)
     fem->refactor_adoption = adoption == 0 ? FactorAdoption::kScheduled : FactorAdoption::kWhenReady;

@@ -14,6 +14,7 @@ namespace nsim {
 /// rayleigh_stiffness, linear_solver (direct | pcg_cached_factor), cg_relative_tolerance,
 /// cg_max_iterations, refactor_iteration_threshold, background_refactor,
 /// refactor_adopt_delay, refactor_adoption (scheduled | when_ready), refactor_slice (s),
+/// refactor_hold_steps,
 /// element_threads,
 /// preconditioner_precision (single | double). The
 /// caller checks them with its own keys (CheckKeys), since a section holds more (mesh, pose).

@@ -218,6 +218,10 @@ SceneStepReport PatientScene::Step(const Eigen::Isometry3d& X_WF_end, double bev
     throw InputError(Str("the run outlasts the breathing table: t = ", t_end,
                          " s > breathing.horizon = ", breathing.t_end(), " s"));
   SceneStepReport report;
+  // on one CPU, the liver's background refresh waits for the end of this step
+  // (patient.liver.refactor_hold_steps, common/fem/worker_gate.h)
+  const FemSolver::RefreshHold hold = liver_body_->solver().HoldRefresh();
+  report.refresh_held = hold.holds();
 
   // diaphragm: the enclosed liver nodes reach X + d(t + h) at the step end
   const Eigen::Vector3d d = breathing.CalcDisplacement(t_end);

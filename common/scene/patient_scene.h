@@ -100,6 +100,9 @@ struct SceneStepReport {
   ConstraintSolveReport solve;      ///< constraint resolution
   ComplianceStats compliance;       ///< the compliance columns it solved and reused
   bool bevel_active = false;        ///< the bevel load acted
+  /// the liver's background refresh was kept off the CPU during the step (one CPU only,
+  /// patient.liver.refactor_hold_steps; timing-independent: it depends on the steps alone)
+  bool refresh_held = false;
 };
 
 /// Puncture status of one tissue.

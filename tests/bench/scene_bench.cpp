@@ -51,11 +51,12 @@ struct Fixture {
   // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it; adopt_delay:
   // 0 keeps the scenario's refactor_adopt_delay; the refreshes are adopted as `adoption` says;
   // slice: < 0 keeps the scenario's refactor_slice (s, 0 in the default scenario)
+  // hold_steps: < 0 keeps the scenario's refactor_hold_steps
   // prefetch: false sets prefetch_ahead and prefetch_rib_margin to 0 (PatientScene::Prefetch
   // does nothing)
   explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0,
                    FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
-                   bool prefetch = true) {
+                   bool prefetch = true, int hold_steps = -1) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
@@ -64,6 +65,7 @@ struct Fixture {
     if (adopt_delay > 0) scenario.scene.liver.refactor_adopt_delay = adopt_delay;
     scenario.scene.liver.refactor_adoption = adoption;
     if (slice >= 0.0) scenario.scene.liver.refactor_slice = slice;
+    if (hold_steps >= 0) scenario.scene.liver.refactor_hold_steps = hold_steps;
     if (!prefetch) scenario.scene.prefetch_ahead = scenario.scene.prefetch_rib_margin = 0.0;
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
@@ -154,9 +156,9 @@ BENCHMARK(BM_DirectSceneFirstStep)
 void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
                          bool paced = false, int adopt_delay = 0,
                          FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
-                         bool prefetch = true, int fifo_priority = 0) {
+                         bool prefetch = true, int fifo_priority = 0, int hold_steps = -1) {
   Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption, slice,
-            prefetch);
+            prefetch, hold_steps);
   while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
          f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
@@ -172,7 +174,7 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
   double prefetch_columns = 0;
   std::vector<double> swap_ms, request_ms;
   double swaps = 0, waits = 0, refactorizations = 0, cg = 0, steps = 0, rows = 0, lags = 0;
-  double slice_wait = 0, sliced_steps = 0, preempted = 0;
+  double slice_wait = 0, sliced_steps = 0, preempted = 0, held = 0;
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(f.scenario.scene.time_step));
   auto next = std::chrono::steady_clock::now();
@@ -189,6 +191,7 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
     });
     getrusage(RUSAGE_THREAD, &after);
     preempted += after.ru_nivcsw > before.ru_nivcsw;
+    held += report.refresh_held;
     // the work between steps, timed apart (realtime: in the period's time left after the step)
     prefetch_columns += between.Time([&] { return f.scene->Prefetch(); });
     const FemStepStats& liver = report.liver_stats;
@@ -223,6 +226,8 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
   state.counters["rows"] = rows / steps;
   // steps the scheduler took the core from at least once (another thread ran meanwhile)
   state.counters["preempted_steps"] = preempted / steps;
+  // steps that kept the refresh off the CPU (one CPU, patient.liver.refactor_hold_steps)
+  state.counters["held_steps"] = held / steps;
   state.counters["liver_depth_mm"] = 1e3 * f.scene->GetTissueStatus(kLiverTissue).depth;
 }
 
@@ -255,6 +260,15 @@ void RegisterSequences() {
   benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady", [](benchmark::State& s) {
     DirectSceneSequence(s, true, true, true, 0, FactorAdoption::kWhenReady);
   })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  // the same without the refresh's hold (refactor_hold_steps 0): on one CPU the refresh then
+  // takes the core from a step for a scheduler tick now and then (the scenario's default holds
+  // it for the step; on two CPUs the two are the same)
+  benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady/NoHold",
+                               [](benchmark::State& s) {
+                                 DirectSceneSequence(s, true, true, true, 0,
+                                                     FactorAdoption::kWhenReady, -1.0, true, 0, 0);
+                               })
+      ->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
   // the same with the loop's thread in SCHED_FIFO (priority 10; direct_sim's run.rt_priority):
   // on one core no step is preempted by the refresh (skipped where the class is not permitted)
   benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady/Fifo",

@@ -20,6 +20,7 @@
 #include <map>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -260,7 +261,9 @@ TEST(FemBackgroundRefreshTest, WhenReadyNeverWaitsAndAgreesWithTheScheduledRun) 
     if (l.refresh_requested) release_late_at = step + ready_config.refactor_adopt_delay + kLateBy;
     if (step == release_late_at) late.solver->WaitForBackgroundFactorization();
     never.Step(step);
-    if (e.factor_swapped) EXPECT_EQ(e.adoption_lag, ready_config.refactor_adopt_delay) << step;
+    if (e.factor_swapped) {
+      EXPECT_EQ(e.adoption_lag, ready_config.refactor_adopt_delay) << step;
+    }
     if (l.factor_swapped) late_lags.push_back(l.adoption_lag);
     early_identical = early_identical && Identical(scheduled, early);
     max_late = std::max(max_late, (late.state->x - scheduled.state->x).cwiseAbs().maxCoeff());
@@ -376,6 +379,80 @@ std::map<int, int> CountThreadClasses() {
     if (policy >= 0) ++count[policy];
   }
   return count;
+}
+
+// FemConfig::refactor_hold_steps: on one CPU a held step keeps the refresh in flight waiting at
+// the worker's gate, even while the CPU is free (the worker is made late enough that the hold
+// is taken before it starts: it sleeps 200 ms first), and the factorization completes once the
+// hold ends. Without the hold the same worker is done within that time.
+TEST(FemBackgroundRefreshTest, AHoldKeepsTheRefreshInFlightWaitingUntilItEnds) {
+  FemConfig config = LiverConfig();
+  config.refactor_hold_steps = 10;
+  OnCpus(true, [&] {
+    for (const bool hold : {true, false}) {
+      LiverRun run(config);
+      run.solver->SetWorkerDelayForTesting(milliseconds(200));
+      int step = 0;
+      while (!run.Step(step).refresh_requested) ASSERT_LT(++step, kSteps) << "no refresh asked for";
+      const int count = run.solver->get_factorization_count();
+      {
+        const std::optional<FemSolver::RefreshHold> held =
+            hold ? std::optional<FemSolver::RefreshHold>(run.solver->HoldRefresh()) : std::nullopt;
+        if (hold) {
+          ASSERT_TRUE(held->holds());
+        }
+        std::this_thread::sleep_for(milliseconds(1500));  // the CPU is free meanwhile
+        if (hold) {
+          EXPECT_EQ(run.solver->get_factorization_count(), count) << "the refresh ran while held";
+          EXPECT_GE(run.solver->get_refresh_gate_waits(), 1);
+        } else {
+          EXPECT_EQ(run.solver->get_factorization_count(), count + 1);
+          EXPECT_EQ(run.solver->get_refresh_gate_waits(), 0);
+        }
+      }
+      run.solver->WaitForBackgroundFactorization();
+      EXPECT_EQ(run.solver->get_factorization_count(), count + 1);
+    }
+  });
+}
+
+// Held steps change nothing but the worker's timing: with the scheduled adoption (whose wait
+// opens the gate) a run whose every step holds the refresh is bit-identical to one without.
+// A refresh requested more than refactor_hold_steps before a step is not held by it; neither
+// does a zero refactor_hold_steps, nor a process on more than one CPU.
+TEST(FemBackgroundRefreshTest, HeldStepsChangeNothingAndHoldOnlyYoungRefreshesOnOneCpu) {
+  constexpr int kHeldSteps = 60;
+  const FemConfig plain_config = LiverConfig();
+  FemConfig held_config = LiverConfig();
+  held_config.refactor_hold_steps = 1;  // the step after the request only (adopt delay 3)
+  OnCpus(true, [&] {
+    LiverRun plain(plain_config), held(held_config);
+    int held_steps = 0, last_request = -1;
+    for (int step = 0; step < kHeldSteps; ++step) {
+      const FemSolver::RefreshHold unheld = plain.solver->HoldRefresh();
+      EXPECT_FALSE(unheld.holds()) << step;  // refactor_hold_steps 0
+      const FemSolver::RefreshHold hold = held.solver->HoldRefresh();
+      // in flight since the request at last_request until its adoption 3 steps later
+      const bool in_flight = last_request >= 0 && step <= last_request + 3;
+      EXPECT_EQ(hold.holds(), !in_flight || step - last_request <= 1) << step;
+      held_steps += hold.holds();
+      plain.Step(step);
+      if (held.Step(step).refresh_requested) last_request = step;
+      ASSERT_TRUE(Identical(plain, held)) << step;
+    }
+    EXPECT_GT(held.requests, 0);
+    std::printf("one CPU: %d of %d steps held the refresh (%d requests), identical to the run "
+                "without holds\n", held_steps, kHeldSteps, held.requests);
+  });
+  cpu_set_t mask;
+  ASSERT_EQ(sched_getaffinity(0, sizeof(mask), &mask), 0);
+  if (CPU_COUNT(&mask) < 2) GTEST_SKIP() << "one CPU only: the two-CPU half needs two";
+  OnCpus(false, [&] {
+    LiverRun run(held_config);
+    EXPECT_FALSE(run.solver->HoldRefresh().holds());
+    run.solver->AssumeOneCpuForTesting(true);
+    EXPECT_TRUE(run.solver->HoldRefresh().holds());
+  });
 }
 
 // The refresh worker lowers itself to SCHED_IDLE (steps first on a shared core), also when the

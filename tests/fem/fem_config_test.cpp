@@ -21,6 +21,7 @@ TEST(FemConfigTest, DefaultsAreValidLiver) {
   EXPECT_FALSE(config.background_refactor);  // in-step refresh (see fem_config.h)
   EXPECT_EQ(config.refactor_adopt_delay, 3);
   EXPECT_EQ(config.refactor_slice, 0.0);
+  EXPECT_EQ(config.refactor_hold_steps, 0);  // never held unless a scenario asks
 }
 
 std::string ValidateMessage(const FemConfig& config) {
@@ -65,6 +66,11 @@ TEST(FemConfigTest, RejectsBadValuesWithKeyAndValue) {
   EXPECT_EQ(ValidateMessage(config), "fem.refactor_slice must be in [0, 1] (s), got -0.001");
   config.refactor_slice = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(ValidateMessage(config), "fem.refactor_slice must be in [0, 1] (s), got nan");
+  config = FemConfig{};
+  config.refactor_hold_steps = -3;
+  EXPECT_EQ(ValidateMessage(config), "fem.refactor_hold_steps must be >= 0 (steps), got -3");
+  config.refactor_hold_steps = 2000000;
+  EXPECT_EQ(ValidateMessage(config), "fem.refactor_hold_steps must be <= 1e+06 (steps), got 2e+06");
   config = FemConfig{};
   config.gravity.x() = std::numeric_limits<double>::infinity();
   EXPECT_NE(ValidateMessage(config).find("fem.gravity must be finite"), std::string::npos);

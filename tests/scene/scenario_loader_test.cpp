@@ -53,6 +53,7 @@ TEST(ScenarioLoaderTest, LoadsTheDefaultScenario) {
   EXPECT_TRUE(s.scene.liver.background_refactor);
   EXPECT_EQ(s.scene.liver.refactor_adopt_delay, 3);
   EXPECT_EQ(s.scene.liver.refactor_slice, 0.0);
+  EXPECT_EQ(s.scene.liver.refactor_hold_steps, 10);
   EXPECT_TRUE(s.scene.liver_rest_compliance);
   EXPECT_EQ(s.robot.kind, RobotKind::kCartesian);
   EXPECT_EQ(s.run.mode, RunMode::kRealtime);
@@ -79,6 +80,10 @@ TEST(ScenarioLoaderTest, BadValuesNameTheKey) {
             "scenario.yaml: patient.liver.refactor_adopt_delay: expected an integer, got '1.5'");
   EXPECT_EQ(LoadError(Edited("refactor_slice: 0", "refactor_slice: 5")),
             "scenario.yaml: patient.liver.refactor_slice must be in [0, 1] (s), got 5");
+  EXPECT_EQ(LoadError(Edited("refactor_hold_steps: 10", "refactor_hold_steps: -1")),
+            "scenario.yaml: patient.liver.refactor_hold_steps must be >= 0 (steps), got -1");
+  EXPECT_EQ(LoadError(Edited("refactor_hold_steps: 10", "refactor_hold_steps: 2.5")),
+            "scenario.yaml: patient.liver.refactor_hold_steps: expected an integer, got '2.5'");
   EXPECT_EQ(LoadError(Edited("constraint_compliance: rest", "constraint_compliance: current")),
             "scenario.yaml: patient.constraint_compliance: expected one of rest, last_factor, got "
             "'current'");
