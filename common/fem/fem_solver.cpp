@@ -90,6 +90,7 @@ struct FemSolver::Impl {
   // closed while a step holds the refresh (FemConfig::refactor_hold_steps); the worker waits
   // at its safe points then
   WorkerGate gate;
+  bool holding = false;  // a RefreshHold of this solver is alive (its gate closed but for waits)
 
   explicit Impl(const FemModel& m)
       : model(m),
@@ -386,6 +387,7 @@ struct FemSolver::Impl {
     main_waiting = false;
     job_done = false;
     adopt_step = -1;
+    if (holding) gate.Close();  // a job requested later in the held step waits for its end
     return late;
   }
 
@@ -420,6 +422,7 @@ struct FemSolver::Impl {
     if (job_done) return 0.0;
     wake.wait_for(lock, std::chrono::duration<double>(config.refactor_slice),
                   [this] { return job_done; });
+    if (holding) gate.Close();  // the slice is over: the rest of the step is held again
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
@@ -433,7 +436,12 @@ struct FemSolver::Impl {
       if (step_index + 1 - requested > config.refactor_hold_steps) return false;
     }
     gate.Close();
+    holding = true;
     return true;
+  }
+  void Release() {
+    holding = false;
+    gate.Open();
   }
 
   // drops the job in flight (waiting for the worker): a factor of this step replaces the old one
@@ -719,18 +727,19 @@ void FemSolver::WaitForBackgroundFactorization() {
   s.wake.notify_all();
   s.wake.wait(lock, [&s] { return s.job_done; });  // job_done stays set: adopted on schedule
   s.main_waiting = false;
+  if (s.holding) s.gate.Close();
 }
 
 FemSolver::RefreshHold FemSolver::HoldRefresh() {
-  return RefreshHold(impl_->Hold() ? &impl_->gate : nullptr);
+  return RefreshHold(impl_->Hold() ? impl_.get() : nullptr);
 }
 
 FemSolver::RefreshHold::~RefreshHold() {
-  if (gate_) gate_->Open();
+  if (impl_) impl_->Release();
 }
 
 FemSolver::RefreshHold::RefreshHold(RefreshHold&& other) noexcept
-    : gate_(std::exchange(other.gate_, nullptr)) {}
+    : impl_(std::exchange(other.impl_, nullptr)) {}
 
 long FemSolver::get_refresh_gate_waits() const { return impl_->gate.waits(); }
 

@@ -123,9 +123,9 @@ struct FemStepStats {
   int inverted_tets = 0;          ///< tets with det F <= kPolarSvdThreshold at the step's x
 };
 
-class WorkerGate;  // common/fem/worker_gate.h
-
 class FemSolver {
+  struct Impl;
+
  public:
   /// Analyses the pattern, factorizes the rest system A_0 = (1 + h alpha) M + (h beta + h^2) K_0
   /// (kept for FemInverse::kRestFactor; the cached factor starts as a copy of it).
@@ -172,18 +172,19 @@ class FemSolver {
     RefreshHold(const RefreshHold&) = delete;
     RefreshHold& operator=(const RefreshHold&) = delete;
     RefreshHold& operator=(RefreshHold&&) = delete;
-    bool holds() const { return gate_ != nullptr; }
+    bool holds() const { return impl_ != nullptr; }
 
    private:
     friend class FemSolver;
-    explicit RefreshHold(WorkerGate* gate) : gate_(gate) {}
-    WorkerGate* gate_;
+    explicit RefreshHold(Impl* impl) : impl_(impl) {}
+    Impl* impl_;  // the solver's, null when nothing is held; must not outlive the solver
   };
   /// Closes the worker's gate (common/fem/worker_gate.h) until the returned hold ends, on a
   /// process confined to one CPU with refactor_hold_steps > 0 and a background worker, unless
   /// the refresh in flight was requested more than refactor_hold_steps steps before the coming
   /// step. Call it before BeginStep; a wait for the worker (the scheduled adoption,
-  /// refactor_slice, WaitForBackgroundFactorization) opens the gate.
+  /// refactor_slice, WaitForBackgroundFactorization) opens the gate, and the scheduled adoption
+  /// and the slice close it again once their wait is over.
   [[nodiscard]] RefreshHold HoldRefresh();
   /// Safe points at which the worker waited for a held step to end, since construction
   /// (timing-dependent; for benchmarks and tests).
@@ -216,7 +217,6 @@ class FemSolver {
   const Eigen::SparseMatrix<double>& CalcSystemMatrix();
 
  private:
-  struct Impl;
   const FemModel& model_;
   std::unique_ptr<Impl> impl_;
   FemStepStats stats_;
