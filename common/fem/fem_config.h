@@ -116,7 +116,8 @@ struct FemConfig {
   /// steps back to back (no time between them) still refresh, at the fair scheduler's pace.
   /// Nothing else changes: which factor preconditions which step is refactor_adoption's (the
   /// scheduled adoption's wait opens the gate). Ignored with two CPUs or more and without
-  /// background_refactor. 0 (the default): never.
+  /// background_refactor. 0 (the default): never. Only the patient scene's step takes the hold
+  /// (PatientScene::Step); the controller's model (inverse.liver) reads the key but never holds.
   int refactor_hold_steps = 0;
   /// Threads of the element passes (the elastic forces and rotations of each step, and the
   /// matrix-free products of the conjugate gradient), 1-8: the tets are split into this many
