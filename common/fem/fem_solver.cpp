@@ -379,16 +379,23 @@ struct FemSolver::Impl {
 
   // waits for the job in flight (if any) to finish; returns whether this thread had to wait
   bool WaitForJob(std::unique_lock<std::mutex>& lock) {
-    gate.Open();  // a held step that waits for the worker lets it run
     const bool late = !job_done;
+    WaitUntilJobDone(lock);
+    job_done = false;
+    adopt_step = -1;
+    return late;
+  }
+
+  // blocks until the worker's job is done (job_done stays set); a held step that waits for the
+  // worker opens its gate for the wait, and closes it again after, so that a job requested
+  // later in the held step waits for its end
+  void WaitUntilJobDone(std::unique_lock<std::mutex>& lock) {
+    gate.Open();
     main_waiting = true;
     wake.notify_all();
     wake.wait(lock, [this] { return job_done; });
     main_waiting = false;
-    job_done = false;
-    adopt_step = -1;
-    if (holding) gate.Close();  // a job requested later in the held step waits for its end
-    return late;
+    if (holding) gate.Close();
   }
 
   // adopts the background factorization requested refactor_adopt_delay steps ago: at the start
@@ -721,13 +728,8 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
 void FemSolver::WaitForBackgroundFactorization() {
   Impl& s = *impl_;
   if (!s.worker.joinable() || s.adopt_step < 0) return;
-  s.gate.Open();
   std::unique_lock<std::mutex> lock(s.mutex);
-  s.main_waiting = true;
-  s.wake.notify_all();
-  s.wake.wait(lock, [&s] { return s.job_done; });  // job_done stays set: adopted on schedule
-  s.main_waiting = false;
-  if (s.holding) s.gate.Close();
+  s.WaitUntilJobDone(lock);  // job_done stays set: adopted on schedule
 }
 
 FemSolver::RefreshHold FemSolver::HoldRefresh() {
