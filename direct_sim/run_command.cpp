@@ -114,6 +114,7 @@ int RunInProcess(const CommandLine& cli, const DirectScenario& scenario, Patient
                  PatientOutputs& outputs, PatientRunInfo* info) {
   InverseScenario inverse = LoadInverseScenario(cli.GetString("config"));
   ApplyControllerOptions(cli, &inverse);
+  inverse.lockstep = true;  // the two loops in one process take turns, frame by frame
   const std::string out = cli.Has("controller-out")
                               ? cli.GetString("controller-out")
                               : (std::filesystem::path(outputs.out_dir()).parent_path() /
@@ -121,14 +122,14 @@ int RunInProcess(const CommandLine& cli, const DirectScenario& scenario, Patient
   std::filesystem::create_directories(out);
   ControllerRecorder recorder(out);
   const TetMesh mesh = ReadGmshMesh(inverse.mesh_path);
-  auto controller = std::make_unique<ControllerLoop>(inverse.loop, mesh);
+  auto controller = std::make_unique<ControllerLoop>(inverse.LoopConfig(), mesh);
   ControllerRestart restart;
   if (cli.Has("restart-controller-at")) {
     const double at = cli.GetDouble("restart-controller-at");
     if (!(at >= 0) || !std::isfinite(at))
       throw InputError(Str("--restart-controller-at must be >= 0 (s), got ", at));
     restart.at_step = std::llround(at / scenario.scene.time_step);
-    restart.make = [&] { return std::make_unique<ControllerLoop>(inverse.loop, mesh); };
+    restart.make = [&] { return std::make_unique<ControllerLoop>(inverse.LoopConfig(), mesh); };
   }
   ControllerRunInfo cinfo;
   cinfo.scenario = inverse.source;

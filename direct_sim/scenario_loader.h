@@ -75,10 +75,15 @@ struct DirectScenario {
 
   /// The patient loop's config (controller = false: insert along the path without targets).
   /// A lockstep run adopts the liver's factor refreshes on schedule (deterministic), whatever
-  /// patient.liver.refactor_adoption says: that key chooses for realtime runs.
+  /// patient.liver.refactor_adoption says: that key chooses for realtime runs. Its refresh
+  /// worker stays in the normal class (FemConfig::idle_refresh_worker), so that the scheduled
+  /// adoptions do not wait for an idle machine.
   PatientLoopConfig LoopConfig(bool controller) const {
     PatientSceneConfig run_scene = scene;
-    if (run.mode == RunMode::kLockstep) run_scene.liver.refactor_adoption = FactorAdoption::kScheduled;
+    if (run.mode == RunMode::kLockstep) {
+      run_scene.liver.refactor_adoption = FactorAdoption::kScheduled;
+      run_scene.liver.idle_refresh_worker = false;
+    }
     return {run_scene, robot, insertion, safety, controller, watchdog};
   }
 };

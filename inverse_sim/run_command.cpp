@@ -104,7 +104,7 @@ int RunInverseSim(int argc, char** argv) {
   const std::string out_dir = cli.GetString("out");
   std::filesystem::create_directories(out_dir);
   ControllerRecorder recorder(out_dir);
-  ControllerLoop loop(scenario.loop, ReadGmshMesh(scenario.mesh_path));
+  ControllerLoop loop(scenario.LoopConfig(), ReadGmshMesh(scenario.mesh_path));
   InstallInterruptHandler();
 
   ControllerRunInfo info;

@@ -31,6 +31,15 @@ struct InverseScenario {
   bool lockstep = false;
   int dds_domain = 0;                ///< dds.domain (default 0)
   std::string dds_partition = "nsim";  ///< dds.partition (default nsim)
+
+  /// The controller loop's config for this run: in lockstep the model's refresh worker stays
+  /// in the normal class (FemConfig::idle_refresh_worker), since its scheduled adoptions wait
+  /// for it; realtime: `loop` as read.
+  ControllerLoopConfig LoopConfig() const {
+    ControllerLoopConfig config = loop;
+    if (lockstep) config.model.liver.idle_refresh_worker = false;
+    return config;
+  }
 };
 
 /// Reads and validates the three sections. InputError "<file>: <key>: ..." on a missing or

@@ -20,6 +20,13 @@ bool LowerThisThreadToIdle() {
   return setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19) == 0;
 }
 
+bool MoveThisThreadToNormalClass() {
+  if (sched_getscheduler(0) == SCHED_OTHER) return true;
+  sched_param param{};
+  param.sched_priority = 0;
+  return sched_setscheduler(0, SCHED_OTHER, &param) == 0;
+}
+
 std::string RaiseThisThreadToFifo(int priority) {
   const int lowest = sched_get_priority_min(SCHED_FIFO),
             highest = sched_get_priority_max(SCHED_FIFO);
@@ -49,10 +56,7 @@ FifoScope::FifoScope(int priority) {
 }
 
 FifoScope::~FifoScope() {
-  if (!raised_) return;
-  sched_param param{};
-  param.sched_priority = 0;
-  sched_setscheduler(0, SCHED_OTHER, &param);  // lowering the class is always permitted
+  if (raised_) MoveThisThreadToNormalClass();  // lowering the class is always permitted
 }
 
 std::string ThisThreadPolicyName() {

@@ -18,6 +18,11 @@ namespace nsim {
 /// of the CPU wants to), falling back to nice 19; returns false if neither could be set.
 bool LowerThisThreadToIdle();
 
+/// Puts the calling thread in the normal class (SCHED_OTHER, priority 0): out of SCHED_FIFO /
+/// SCHED_RR, which is always permitted, and a no-op for a thread already there. Returns false
+/// if the kernel refused (leaving SCHED_IDLE needs CAP_SYS_NICE or an RLIMIT_NICE of 20).
+bool MoveThisThreadToNormalClass();
+
 /// Puts the calling thread in SCHED_FIFO at `priority` (1-99). Needs CAP_SYS_NICE or an
 /// RLIMIT_RTPRIO of at least `priority` (`ulimit -r`, limits.conf `rtprio`). Returns an empty
 /// string on success, else why not (the thread's class is then unchanged). Threads the

@@ -502,6 +502,44 @@ TEST(FemBackgroundRefreshTest, TheWorkerRunsInTheIdleClassWhateverItsCreatorsCla
   }
 }
 
+// FemConfig::idle_refresh_worker = false (lockstep runs): the worker stays in the normal class,
+// also when its creator is in the realtime class (it is moved out of it, never into SCHED_IDLE),
+// and the run is bit-identical to one with an idle-class worker. The worker has passed the
+// line that sets its class once a refresh it computed has been adopted.
+TEST(FemBackgroundRefreshTest, ANormalClassWorkerIsNeverIdleAndChangesNothing) {
+  for (int creator_priority : {0, 5}) {
+    std::thread creator([creator_priority] {
+      const FifoScope fifo(creator_priority);
+      if (creator_priority > 0 && !fifo.raised()) {
+        std::printf("skipped the SCHED_FIFO creator: %s\n", fifo.error().c_str());
+        return;
+      }
+      const std::map<int, int> before = CountThreadClasses();
+      const auto count = [&before](const std::map<int, int>& now, int policy) {
+        const auto b = before.find(policy);
+        const auto n = now.find(policy);
+        return (n == now.end() ? 0 : n->second) - (b == before.end() ? 0 : b->second);
+      };
+      FemConfig config = LiverConfig();
+      config.idle_refresh_worker = false;
+      LiverRun normal(config);
+      int step = 0;
+      for (; step < kSteps && normal.swaps < 1; ++step) normal.Step(step);
+      ASSERT_GE(normal.swaps, 1) << "no refresh adopted in " << kSteps << " steps";
+      const std::map<int, int> now = CountThreadClasses();
+      EXPECT_EQ(count(now, SCHED_IDLE), 0) << "creator priority " << creator_priority;
+      EXPECT_EQ(count(now, SCHED_FIFO), 0) << "creator priority " << creator_priority;
+      EXPECT_GE(count(now, SCHED_OTHER), 1) << "creator priority " << creator_priority;
+      LiverRun idle(LiverConfig());
+      for (int k = 0; k < step; ++k) idle.Step(k);
+      EXPECT_TRUE(Identical(normal, idle)) << "creator priority " << creator_priority;
+      EXPECT_EQ(normal.request_steps, idle.request_steps);
+      EXPECT_EQ(normal.swap_steps, idle.swap_steps);
+    });
+    creator.join();
+  }
+}
+
 TEST(ForkJoinTest, RunsEveryPartOncePerCall) {
   for (int parts : {1, 2, 3, 8}) {
     ForkJoin pool(parts);

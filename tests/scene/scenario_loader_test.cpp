@@ -127,7 +127,8 @@ TEST(ScenarioLoaderTest, PrefetchDistances) {
 }
 
 // patient.liver.refactor_adoption chooses for realtime runs; a lockstep run's patient loop
-// always adopts on schedule (deterministic), whatever the file says
+// always adopts on schedule (deterministic), whatever the file says, with its refresh worker
+// in the normal class
 TEST(ScenarioLoaderTest, RefactorAdoptionIsScheduledInLockstep) {
   const auto load = [](const std::string& text) {
     return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
@@ -140,8 +141,12 @@ TEST(ScenarioLoaderTest, RefactorAdoptionIsScheduledInLockstep) {
   EXPECT_EQ(scheduled.scene.liver.refactor_adoption, FactorAdoption::kScheduled);
   ready.run.mode = RunMode::kRealtime;
   EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kWhenReady);
+  EXPECT_TRUE(ready.LoopConfig(true).scene.liver.idle_refresh_worker);
   ready.run.mode = RunMode::kLockstep;
   EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kScheduled);
+  // the scheduled adoptions wait for the worker: not in the idle class, which a busy machine
+  // starves
+  EXPECT_FALSE(ready.LoopConfig(true).scene.liver.idle_refresh_worker);
   EXPECT_NE(LoadError(Edited("refactor_adoption: when_ready", "refactor_adoption: soon"))
                 .find("refactor_adoption"),
             std::string::npos);

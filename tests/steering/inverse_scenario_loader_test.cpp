@@ -78,6 +78,18 @@ TEST(InverseScenarioLoaderTest, ReadsTheModelLiversSolverKeys) {
       << bad;
 }
 
+// run.mode sets the model's refresh worker's class: the lowest in realtime (the control step
+// goes first), the normal class in lockstep (its scheduled adoptions wait for the worker)
+TEST(InverseScenarioLoaderTest, LockstepKeepsTheRefreshWorkerInTheNormalClass) {
+  InverseScenario s = Load(DefaultText());  // run.mode: realtime
+  EXPECT_FALSE(s.lockstep);
+  EXPECT_TRUE(s.LoopConfig().model.liver.idle_refresh_worker);
+  s = Load(Edited(DefaultText(), "  mode: realtime ", "  mode: lockstep "));
+  EXPECT_TRUE(s.lockstep);
+  EXPECT_FALSE(s.LoopConfig().model.liver.idle_refresh_worker);
+  EXPECT_TRUE(s.loop.model.liver.idle_refresh_worker);  // the loaded config is as read
+}
+
 // the model's needle coupling and prediction options: defaults, values, and bad choices by key
 TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   const InverseScenario plain = Load(DefaultText());
