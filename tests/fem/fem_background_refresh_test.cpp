@@ -380,6 +380,28 @@ std::map<int, int> CountThreadClasses() {
   return count;
 }
 
+// Runs body(count) on a new thread in SCHED_FIFO at creator_priority (0: the normal class), and
+// joins it; count(policy) is how many more of this process's threads are in that class than
+// when the thread started. A refused SCHED_FIFO is printed and skipped.
+void InCreatorThread(int creator_priority,
+                     const std::function<void(const std::function<int(int)>&)>& body) {
+  std::thread creator([&] {
+    const FifoScope fifo(creator_priority);
+    if (creator_priority > 0 && !fifo.raised()) {
+      std::printf("skipped the SCHED_FIFO creator: %s\n", fifo.error().c_str());
+      return;
+    }
+    const std::map<int, int> before = CountThreadClasses();
+    body([&before](int policy) {
+      const std::map<int, int> now = CountThreadClasses();
+      const auto b = before.find(policy);
+      const auto n = now.find(policy);
+      return (n == now.end() ? 0 : n->second) - (b == before.end() ? 0 : b->second);
+    });
+  });
+  creator.join();
+}
+
 // FemConfig::refactor_hold_steps: on one CPU a held step keeps the refresh in flight waiting at
 // the worker's gate, however long the hold lasts and even while the CPU is free (the worker is
 // made late enough that the hold is taken before it starts: it sleeps 200 ms first), and the
@@ -475,30 +497,15 @@ TEST(FemBackgroundRefreshTest, HeldStepsChangeNothingAndHoldOnlyYoungRefreshesOn
 // class a new thread would otherwise inherit.
 TEST(FemBackgroundRefreshTest, TheWorkerRunsInTheIdleClassWhateverItsCreatorsClass) {
   for (int creator_priority : {0, 5}) {
-    std::thread creator([creator_priority] {
-      const FifoScope fifo(creator_priority);
-      if (creator_priority > 0 && !fifo.raised()) {
-        std::printf("skipped the SCHED_FIFO creator: %s\n", fifo.error().c_str());
-        return;
-      }
-      const std::map<int, int> before = CountThreadClasses();
-      const auto count = [&before](const std::map<int, int>& now, int policy) {
-        const auto b = before.find(policy);
-        const auto n = now.find(policy);
-        return (n == now.end() ? 0 : n->second) - (b == before.end() ? 0 : b->second);
-      };
+    InCreatorThread(creator_priority, [creator_priority](const std::function<int(int)>& count) {
       LiverRun run(LiverConfig());
       // the worker sets its class as it starts: wait for it (bounded)
-      std::map<int, int> now = CountThreadClasses();
-      for (int i = 0; i < 500 && count(now, SCHED_IDLE) < 1; ++i) {
+      for (int i = 0; i < 500 && count(SCHED_IDLE) < 1; ++i)
         std::this_thread::sleep_for(milliseconds(10));
-        now = CountThreadClasses();
-      }
-      EXPECT_EQ(count(now, SCHED_IDLE), 1) << "creator priority " << creator_priority;
-      EXPECT_EQ(count(now, SCHED_FIFO), 0) << "creator priority " << creator_priority;
+      EXPECT_EQ(count(SCHED_IDLE), 1) << "creator priority " << creator_priority;
+      EXPECT_EQ(count(SCHED_FIFO), 0) << "creator priority " << creator_priority;
       EXPECT_EQ(ThisThreadPolicyName(), creator_priority > 0 ? "fifo" : "other");
     });
-    creator.join();
   }
 }
 
@@ -508,35 +515,22 @@ TEST(FemBackgroundRefreshTest, TheWorkerRunsInTheIdleClassWhateverItsCreatorsCla
 // line that sets its class once a refresh it computed has been adopted.
 TEST(FemBackgroundRefreshTest, ANormalClassWorkerIsNeverIdleAndChangesNothing) {
   for (int creator_priority : {0, 5}) {
-    std::thread creator([creator_priority] {
-      const FifoScope fifo(creator_priority);
-      if (creator_priority > 0 && !fifo.raised()) {
-        std::printf("skipped the SCHED_FIFO creator: %s\n", fifo.error().c_str());
-        return;
-      }
-      const std::map<int, int> before = CountThreadClasses();
-      const auto count = [&before](const std::map<int, int>& now, int policy) {
-        const auto b = before.find(policy);
-        const auto n = now.find(policy);
-        return (n == now.end() ? 0 : n->second) - (b == before.end() ? 0 : b->second);
-      };
+    InCreatorThread(creator_priority, [creator_priority](const std::function<int(int)>& count) {
       FemConfig config = LiverConfig();
       config.idle_refresh_worker = false;
       LiverRun normal(config);
       int step = 0;
       for (; step < kSteps && normal.swaps < 1; ++step) normal.Step(step);
       ASSERT_GE(normal.swaps, 1) << "no refresh adopted in " << kSteps << " steps";
-      const std::map<int, int> now = CountThreadClasses();
-      EXPECT_EQ(count(now, SCHED_IDLE), 0) << "creator priority " << creator_priority;
-      EXPECT_EQ(count(now, SCHED_FIFO), 0) << "creator priority " << creator_priority;
-      EXPECT_GE(count(now, SCHED_OTHER), 1) << "creator priority " << creator_priority;
+      EXPECT_EQ(count(SCHED_IDLE), 0) << "creator priority " << creator_priority;
+      EXPECT_EQ(count(SCHED_FIFO), 0) << "creator priority " << creator_priority;
+      EXPECT_GE(count(SCHED_OTHER), 1) << "creator priority " << creator_priority;
       LiverRun idle(LiverConfig());
       for (int k = 0; k < step; ++k) idle.Step(k);
       EXPECT_TRUE(Identical(normal, idle)) << "creator priority " << creator_priority;
       EXPECT_EQ(normal.request_steps, idle.request_steps);
       EXPECT_EQ(normal.swap_steps, idle.swap_steps);
     });
-    creator.join();
   }
 }
 
