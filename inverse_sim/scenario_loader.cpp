@@ -162,12 +162,13 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight", "null_space_gain",
-                 "joint_limit_margin", "alignment"});
+                 "joint_limit_margin", "alignment", "max_needle_tilt"});
   const int alignment = ctl.ReadChoice("alignment", {"tip", "base"});
   if (alignment >= 0)
     s->loop.control.alignment = alignment == 0 ? AlignmentReference::kTip : AlignmentReference::kBase;
   ctl.Read("null_space_gain", &s->loop.control.null_space_gain);
   ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
+  ctl.Read("max_needle_tilt", &s->loop.control.max_needle_tilt);
   std::string dof;
   if (ctl.Read("dof", &dof)) s->loop.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
   const YamlReader p = ctl.Child("path");

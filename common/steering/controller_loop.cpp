@@ -195,6 +195,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     ++counts_.invalid_outputs;
     return std::nullopt;
   }
+  counts_.tilt_limited += out.tilt_limited ? 1 : 0;
   RobotTarget target;
   target.stamp.seq = counts_.targets++;
   target.stamp.sim_time = t;

@@ -96,6 +96,7 @@ struct ControllerCounts {
   uint64_t answered = 0;         ///< frames answered (valid or not)
   uint64_t targets = 0;          ///< targets produced
   uint64_t invalid_outputs = 0;  ///< answered without a target (non-finite objectives)
+  uint64_t tilt_limited = 0;     ///< targets turned back onto controller.max_needle_tilt
   uint64_t rejected_frames = 0;  ///< frames refused (malformed, out of order, no robot state)
   uint64_t observed = 0;         ///< frames fed to the predictor
   std::string last_rejection;

@@ -5,6 +5,7 @@
 // side's scenario loader fills them from the `inverse:` and `controller:` sections.
 
 #include <Eigen/Core>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -190,6 +191,14 @@ struct SteeringControlConfig {
   /// law.max_translation_step and max_rotation_step, as the Cartesian law's does. 0: the
   /// minimum-norm step only. (1/step, in [0, 1])
   double null_space_gain = 0.02;
+  /// The bound on the commanded needle's tilt (rad, in (0, pi]): the angle between its axis and
+  /// the planned insertion direction (common/control/needle_tilt.h). A target tilted more is
+  /// turned back onto the bound about the needle's entry point (kJoint7: the joints follow by
+  /// Newton steps on the flange pose). In the liver e_p and e_e do not fix a flexible needle's
+  /// direction, and without it its base turned 55-63 degrees inside the liver; the rigid needle
+  /// uses up to 19 degrees to follow the breathing (README "Flexible and bevelled needles").
+  /// pi (the default): no bound. (YAML controller.max_needle_tilt)
+  double max_needle_tilt = M_PI;
   /// kJoint7: the commanded joints stay this far inside the iiwa's position limits (rad), >= 0.
   double joint_limit_margin = 0.05;
 

@@ -7,6 +7,7 @@
 
 #include "common/control/control_law.h"
 #include "common/control/finite_difference_jacobian.h"
+#include "common/control/needle_tilt.h"
 #include "common/core/error.h"
 #include "common/robot/pose_math.h"
 
@@ -200,6 +201,10 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
         CalcCartesianTarget(base, out.J, out.e_expected, k, control_.law);
     out.valid = law.valid && status.all_finite && converged;
     out.X_WE_target = out.valid ? law.X_WE_target : X_WF;
+    if (out.valid)
+      out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(),
+                                         TiltPivot(out.X_WE_target), control_.max_needle_tilt,
+                                         &out.X_WE_target);
     out.step_limited = law.step_limited;
     out.q_target = input.q;
   } else {
@@ -218,6 +223,12 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     if (out.valid && control_.null_space_gain > 0) {
       out.null_space_step = CalcNullSpaceStep(q_target);
       q_target += out.null_space_step;
+    }
+    if (out.valid) {
+      Eigen::Isometry3d X = CalcFlangePose(q_target);
+      out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(), TiltPivot(X),
+                                         control_.max_needle_tilt, &X);
+      if (out.tilt_limited) q_target = FollowFlangePose(q_target, X);
     }
     out.q_target = out.valid ? ClampWithMargin(q_target) : input.q;
     out.X_WE_target = CalcFlangePose(out.q_target);
@@ -318,6 +329,33 @@ Vector7d SteeringController::CalcNullSpaceStep(const Vector7d& q) const {
   const Vector7d correction = J_N.transpose() * JJt.ldlt().solve(needle_drift);
   const Vector7d corrected = step - correction;
   return corrected.allFinite() ? corrected : Vector7d::Zero();
+}
+
+Eigen::Vector3d SteeringController::TiltPivot(const Eigen::Isometry3d& X_WF) const {
+  return entry_known_ ? p_WC_ : Eigen::Vector3d(X_WF.translation());
+}
+
+Vector7d SteeringController::FollowFlangePose(const Vector7d& q0,
+                                              const Eigen::Isometry3d& X_WF_goal) const {
+  // Newton on the flange pose with the minimum-norm joint step J_F^T (J_F J_F^T)^-1 err: the
+  // turn back onto the tilt bound is small (about a step's rotation cap, 0.01 rad, once the
+  // needle rests on the bound), so a few iterations reach 1e-12
+  Vector7d q = q0;
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    Iiwa14Kinematics kinematics;
+    iiwa_.CalcForwardKinematics(q, &kinematics);
+    Vector6d error;
+    error.head<3>() = X_WF_goal.translation() - kinematics.X_WT.translation();
+    error.tail<3>() = LogSO3(X_WF_goal.linear() * kinematics.X_WT.linear().transpose());
+    if (error.norm() < 1e-12) break;
+    Jacobian67 J_F;
+    iiwa_.CalcToolJacobian(kinematics, &J_F);  // the tool is the flange (MakeFlangeIiwaConfig)
+    const Eigen::Matrix<double, 6, 6> JJt = J_F * J_F.transpose();
+    const Vector7d dq = J_F.transpose() * JJt.ldlt().solve(error);
+    if (!dq.allFinite()) return q0;
+    q += dq;
+  }
+  return q;
 }
 
 Vector7d SteeringController::ClampWithMargin(const Vector7d& q) const {

@@ -72,6 +72,8 @@ struct SteeringOutput {
   Eigen::Isometry3d X_WE_target = Eigen::Isometry3d::Identity();  ///< eq. 3.9 (kCartesian6)
   Vector7d q_target = Vector7d::Zero();                           ///< eq. A.3 (kJoint7)
   bool step_limited = false;
+  /// the target was turned back onto control.max_needle_tilt (common/control/needle_tilt.h)
+  bool tilt_limited = false;
   Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();     ///< model tip (m)
   Eigen::Vector3d p_WTarget = Eigen::Vector3d::Zero();  ///< model's current path target (m)
   Eigen::Vector3d p_WFinal = Eigen::Vector3d::Zero();   ///< model's final target (m)
@@ -134,6 +136,12 @@ class SteeringController {
   /// the last commanded pose.
   Eigen::Vector3d CalcSwitchingTip(const SteeringInput& input, const Eigen::Isometry3d& X_WF,
                                    const Eigen::Vector3d& p_WTip) const;
+  /// The point the tilt bound turns the needle about (control.max_needle_tilt): the current
+  /// entry point once known, else the flange's origin (outside the body).
+  Eigen::Vector3d TiltPivot(const Eigen::Isometry3d& X_WF) const;
+  /// Joints near q0 whose flange pose is X_WF_goal (Newton, minimum-norm steps; q0 if a step
+  /// is not finite).
+  Vector7d FollowFlangePose(const Vector7d& q0, const Eigen::Isometry3d& X_WF_goal) const;
   /// q clamped into the iiwa's limits shrunk by control.joint_limit_margin.
   Vector7d ClampWithMargin(const Vector7d& q) const;
   /// The objective vector of `phase` from one evaluation of the frozen step.

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -192,6 +193,21 @@ TEST(InverseScenarioLoaderTest, ReadsTheAlignmentReference) {
             AlignmentReference::kBase);
   const std::string bad = LoadError(Edited(DefaultText(), key, "  alignment: middle\n" + key));
   EXPECT_NE(bad.find("alignment"), std::string::npos) << bad;
+}
+
+// controller.max_needle_tilt: the default scenario's 0.35 rad, none (pi) without the key, and
+// values outside (0, pi] named by their key
+TEST(InverseScenarioLoaderTest, ReadsTheNeedleTiltBound) {
+  const std::string key = "  max_needle_tilt: 0.35        # (rad, 20 degrees)";
+  EXPECT_EQ(Load(DefaultText()).loop.control.max_needle_tilt, 0.35);
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "")).loop.control.max_needle_tilt, M_PI);
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "  max_needle_tilt: 0.2")).loop.control.max_needle_tilt,
+            0.2);
+  for (const char* value : {"0", "-0.1", "4", ".nan"}) {
+    const std::string bad =
+        LoadError(Edited(DefaultText(), key, std::string("  max_needle_tilt: ") + value));
+    EXPECT_NE(bad.find("controller.max_needle_tilt"), std::string::npos) << value << ": " << bad;
+  }
 }
 
 TEST(InverseScenarioLoaderTest, ReadsWhoseTipAdvancesThePath) {

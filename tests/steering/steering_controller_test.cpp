@@ -12,6 +12,7 @@
 #include "common/core/error.h"
 
 #include "common/control/finite_difference_jacobian.h"
+#include "common/control/needle_tilt.h"
 #include "common/robot/iiwa14_ik.h"
 #include "tests/steering/steering_test_scene.h"
 
@@ -80,11 +81,14 @@ struct LoopResult {
   // largest motion of a needle point (base, or tip as if 0.13 m along the axis) that a
   // null-space step caused (m)
   double max_null_flange_motion = 0.0;
+  double max_tilt = 0.0;  // largest commanded needle tilt from the planned direction (rad)
+  int tilt_limited = 0;   // targets turned back onto control.max_needle_tilt
 };
 
 // closed loop: controller (E factor `model_factor`) drives a plant model (factor 1)
 LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_steps,
-                              double null_space_gain = SteeringControlConfig().null_space_gain) {
+                              double null_space_gain = SteeringControlConfig().null_space_gain,
+                              double max_needle_tilt = M_PI) {
   const TetMesh mesh = LoadLiver("liver_700");
   const SteeringPathConfig path = MakePathConfig();
   const InverseModelConfig plant_config = MakeModelConfig(1.0);
@@ -94,6 +98,7 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
   control.law.max_translation_step = 0.003;
   control.law.max_joint_step = 0.01;
   control.null_space_gain = null_space_gain;
+  control.max_needle_tilt = max_needle_tilt;
   const Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(plant_config.needle, path);
 
   Vector7d q = Vector7d::Zero();
@@ -135,6 +140,11 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
     }
     q = out.q_target;
     X_WE = out.X_WE_target;
+    const Eigen::Isometry3d commanded =
+        dof == SteeringDof::kJoint7 ? controller.CalcFlangePose(q) : X_WE;
+    result.max_tilt = std::max(result.max_tilt, CalcNeedleTilt(commanded, model_config.needle.axis_F,
+                                                               path.target_W - path.entry_W));
+    result.tilt_limited += out.tilt_limited ? 1 : 0;
     if (dof == SteeringDof::kJoint7) {
       const double n = out.null_space_step.norm();
       result.null_step_sum += n;
@@ -195,6 +205,31 @@ TEST(SteeringControllerTest, StaticLiverJointSpaceReachesTargetAndUsesTheNullSpa
               1e3 * with.max_flange_step, with.max_flange_turn, with.max_null_flange_motion);
 }
 
+// controller.max_needle_tilt: with the bound at half the tilt an unbounded insertion reaches,
+// no commanded needle axis (Cartesian target, or the flange pose of the joint target) is tilted
+// more than the bound, some targets were turned back, and the insertion still reaches its
+// target; with the bound pi nothing is turned
+TEST(SteeringControllerTest, TheTiltBoundHoldsEveryCommandedNeedleAxis) {
+  for (SteeringDof dof : {SteeringDof::kCartesian6, SteeringDof::kJoint7}) {
+    const char* name = dof == SteeringDof::kCartesian6 ? "cartesian6" : "joint7";
+    const int steps = dof == SteeringDof::kCartesian6 ? 90 : 120;
+    const LoopResult free = RunStaticInsertion(dof, 1.1, steps);
+    EXPECT_EQ(free.tilt_limited, 0) << name;
+    ASSERT_GT(free.max_tilt, 1e-4) << name << ": the insertion must tilt for the bound to act";
+    const double bound = 0.5 * free.max_tilt;
+    const LoopResult bounded =
+        RunStaticInsertion(dof, 1.1, steps, SteeringControlConfig().null_space_gain, bound);
+    EXPECT_GT(bounded.tilt_limited, 0) << name;
+    EXPECT_LE(bounded.max_tilt, bound + 1e-9) << name;
+    EXPECT_TRUE(bounded.reached_end) << name;
+    EXPECT_LT(bounded.final_error, kFinalTolerance) << name;
+    std::printf("%s: tilt %.3g rad free, bound %.3g rad: at most %.3g rad, %d targets turned, "
+                "final error %.4f mm\n",
+                name, free.max_tilt, bound, bounded.max_tilt, bounded.tilt_limited,
+                1e3 * bounded.final_error);
+  }
+}
+
 TEST(SteeringControllerTest, BadRedundancySettingsAreRefusedWithTheirKey) {
   SteeringControlConfig c;
   c.null_space_gain = 1.5;
@@ -207,6 +242,17 @@ TEST(SteeringControllerTest, BadRedundancySettingsAreRefusedWithTheirKey) {
   c = SteeringControlConfig();
   c.joint_limit_margin = 2.5;  // more than half of joint 2's range (+-2.09 rad)
   EXPECT_THROW(c.Validate(), InputError);
+  for (double tilt : {0.0, -0.1, 3.2, std::nan("")}) {
+    c = SteeringControlConfig();
+    c.max_needle_tilt = tilt;
+    EXPECT_THROW(
+        try { c.Validate(); } catch (const InputError& e) {
+          EXPECT_NE(std::string(e.what()).find("controller.max_needle_tilt"), std::string::npos);
+          throw;
+        },
+        InputError)
+        << tilt;
+  }
 }
 
 }  // namespace
