@@ -1,6 +1,7 @@
 #include "inverse_sim/scenario_loader.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -162,13 +163,17 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight", "null_space_gain",
-                 "joint_limit_margin", "alignment", "max_needle_tilt"});
+                 "joint_limit_margin", "alignment", "max_needle_tilt", "liver_alignment"});
   const int alignment = ctl.ReadChoice("alignment", {"tip", "base"});
   if (alignment >= 0)
     s->loop.control.alignment = alignment == 0 ? AlignmentReference::kTip : AlignmentReference::kBase;
   ctl.Read("null_space_gain", &s->loop.control.null_space_gain);
   ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
   ctl.Read("max_needle_tilt", &s->loop.control.max_needle_tilt);
+  const int liver_alignment = ctl.ReadChoice("liver_alignment", {"auto", "none", "base"});
+  if (liver_alignment >= 0)
+    s->loop.control.liver_alignment = std::array<LiverAlignment, 3>{
+        LiverAlignment::kAuto, LiverAlignment::kNone, LiverAlignment::kBase}[liver_alignment];
   std::string dof;
   if (ctl.Read("dof", &dof)) s->loop.control.dof = ParseSteeringDof(dof, ctl.Where("dof"));
   const YamlReader p = ctl.Child("path");

@@ -50,7 +50,7 @@ InsertionPhase DetermineInsertionPhase(bool skin_punctured, bool liver_punctured
   return InsertionPhase::kBeforeSkin;
 }
 
-ObjectiveLayout GetObjectiveLayout(InsertionPhase phase) {
+ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver) {
   ObjectiveLayout layout;
   layout.position_row = 0;
   switch (phase) {
@@ -64,8 +64,14 @@ ObjectiveLayout GetObjectiveLayout(InsertionPhase phase) {
       layout.rows = 6;
       break;
     case InsertionPhase::kInLiver:
-      layout.entry_row = 3;
-      layout.rows = 5;
+      if (align_in_liver) {
+        layout.angle_row = 3;
+        layout.entry_row = 4;
+        layout.rows = 6;
+      } else {
+        layout.entry_row = 3;
+        layout.rows = 5;
+      }
       break;
   }
   NSIM_CHECK(layout.rows > 0, "unknown insertion phase ", static_cast<int>(phase));
@@ -73,8 +79,8 @@ ObjectiveLayout GetObjectiveLayout(InsertionPhase phase) {
 }
 
 void AssembleObjectiveVector(InsertionPhase phase, const ObjectiveValues& values,
-                             Eigen::VectorXd* e) {
-  const ObjectiveLayout layout = GetObjectiveLayout(phase);
+                             Eigen::VectorXd* e, bool align_in_liver) {
+  const ObjectiveLayout layout = GetObjectiveLayout(phase, align_in_liver);
   e->resize(layout.rows);
   e->segment<3>(layout.position_row) = values.e_p;
   if (layout.angle_row >= 0) (*e)[layout.angle_row] = values.e_a;
@@ -91,8 +97,9 @@ void ObjectiveGains::Validate() const {
   }
 }
 
-void AssembleGainVector(InsertionPhase phase, const ObjectiveGains& gains, Eigen::VectorXd* k) {
-  const ObjectiveLayout layout = GetObjectiveLayout(phase);
+void AssembleGainVector(InsertionPhase phase, const ObjectiveGains& gains, Eigen::VectorXd* k,
+                        bool align_in_liver) {
+  const ObjectiveLayout layout = GetObjectiveLayout(phase, align_in_liver);
   k->resize(layout.rows);
   k->segment<3>(layout.position_row).setConstant(gains.position);
   if (layout.angle_row >= 0) (*k)[layout.angle_row] = gains.angle;

@@ -7,6 +7,8 @@
 //   phase 1, before the skin:        [e_p, e_a]       4 rows
 //   phase 2, in the skin, not liver: [e_p, e_a, e_e]  6 rows
 //   phase 3, in the liver:           [e_p, e_e]       5 rows
+//   phase 3 aligned (align_in_liver): [e_p, e_a, e_e] 6 rows: a flexible needle's direction,
+//     which e_p and e_e do not fix in the liver (SteeringControlConfig::liver_alignment)
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -68,8 +70,8 @@ struct ObjectiveLayout {
   int entry_row = -1;    ///< first row of e_e
 };
 
-/// The layout of a phase (see the file comment).
-ObjectiveLayout GetObjectiveLayout(InsertionPhase phase);
+/// The layout of a phase (see the file comment); align_in_liver keeps e_a in phase 3.
+ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver = false);
 
 /// All objective values at one configuration; e_e is ignored before the puncture.
 struct ObjectiveValues {
@@ -80,7 +82,7 @@ struct ObjectiveValues {
 
 /// Stacks the active objectives of `phase` into e (resized to the layout's rows).
 void AssembleObjectiveVector(InsertionPhase phase, const ObjectiveValues& values,
-                             Eigen::VectorXd* e);
+                             Eigen::VectorXd* e, bool align_in_liver = false);
 
 /// Control gains per objective (the vector k of eq. 3.9 / A.3 repeats each on its rows).
 struct ObjectiveGains {
@@ -94,6 +96,7 @@ struct ObjectiveGains {
 };
 
 /// The per-row gain vector k of `phase` (resized to the layout's rows).
-void AssembleGainVector(InsertionPhase phase, const ObjectiveGains& gains, Eigen::VectorXd* k);
+void AssembleGainVector(InsertionPhase phase, const ObjectiveGains& gains, Eigen::VectorXd* k,
+                        bool align_in_liver = false);
 
 }  // namespace nsim

@@ -109,6 +109,9 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"model_bevel", c.model.bevel.enabled},
             {"alignment", c.control.alignment == AlignmentReference::kTip ? "tip" : "base"},
             {"max_needle_tilt_rad", c.control.max_needle_tilt},
+            {"liver_alignment", c.control.liver_alignment == LiverAlignment::kAuto   ? "auto"
+                                : c.control.liver_alignment == LiverAlignment::kNone ? "none"
+                                                                                      : "base"},
             {"gains",
              {{"position", c.control.gains.position},
               {"angle", c.control.gains.angle},

@@ -147,6 +147,13 @@ enum class AlignmentReference {
   kBase,  ///< the direction at the base (the flange's needle axis)
 };
 
+/// Whether e_a stays an objective in the liver (phase 3), on the needle's base direction.
+enum class LiverAlignment {
+  kAuto,  ///< for a flexible model needle (kBase), not for a rigid one (kNone)
+  kNone,  ///< the thesis's phases: e_p and e_e only in the liver
+  kBase,  ///< e_a on the base's direction (the flange's needle axis) in the liver too
+};
+
 /// Jacobian, inverse and law settings.
 struct SteeringControlConfig {
   SteeringDof dof = SteeringDof::kCartesian6;
@@ -174,6 +181,14 @@ struct SteeringControlConfig {
   /// the needle; aligning the base keeps e_a's rows those of a rigid needle (README, flexible
   /// model needle).
   AlignmentReference alignment = AlignmentReference::kTip;
+  /// e_a in the liver (YAML controller.liver_alignment: auto | none | base). e_p and e_e fix a
+  /// rigid needle's direction there (the line through the entry point and the tip: kNone, the
+  /// thesis's phases); a flexible needle held by the tissue leaves its base free to turn about
+  /// the entry point with hardly any effect on the tip, and without an objective for it the
+  /// base turned 55-63 degrees by the end of a run. kBase keeps e_a (on the base's direction,
+  /// whatever `alignment` says: the tip's direction is the bent needle's) in the liver; kAuto
+  /// (the default) chooses kBase for a flexible model needle, kNone for a rigid one.
+  LiverAlignment liver_alignment = LiverAlignment::kAuto;
   /// Include e_e (eq. 3.5) in phase 3 even when the skin entry is unknown, using the liver
   /// entry point (scenes without a skin).
   bool liver_entry_objective = true;

@@ -38,6 +38,9 @@ SteeringController::SteeringController(const InverseModelConfig& model,
   needle_p_FBase_ = model.needle.p_FBase;
   needle_axis_F_ = model.needle.axis_F;
   roll_free_ = !model.bevel.enabled;
+  align_in_liver_ = control_.liver_alignment == LiverAlignment::kBase ||
+                    (control_.liver_alignment == LiverAlignment::kAuto &&
+                     model.needle_kind == ModelNeedleKind::kFlexible);
 }
 
 SteeringController::~SteeringController() = default;
@@ -55,9 +58,11 @@ Eigen::VectorXd SteeringController::CalcObjectives(const SteeringEvaluation& eva
                                                    InsertionPhase phase) const {
   ObjectiveValues values;
   values.e_p = CalcPositionObjective(eval.p_WPath[path_index_], eval.p_WTip);
-  // the needle's direction at its tip (the bent needle's) or at its base (the flange's axis)
-  const Eigen::Vector3d z = control_.alignment == AlignmentReference::kTip
-                                ? Eigen::Vector3d(eval.R_WTip.col(2))
+  // the needle's direction at its tip (the bent needle's) or at its base (the flange's axis);
+  // in the liver (align_in_liver_) always the base's
+  const bool tip = control_.alignment == AlignmentReference::kTip &&
+                   !(align_in_liver_ && phase == InsertionPhase::kInLiver);
+  const Eigen::Vector3d z = tip ? Eigen::Vector3d(eval.R_WTip.col(2))
                                 : Eigen::Vector3d(eval.X_WN.linear().col(2));
   values.e_a = CalcAngleObjective(z, sim_->path_direction());
   if (entry_known_) {
@@ -66,7 +71,7 @@ Eigen::VectorXd SteeringController::CalcObjectives(const SteeringEvaluation& eva
     values.e_e = CalcEntryObjective(entry_plane_, p_WC);
   }
   Eigen::VectorXd e;
-  AssembleObjectiveVector(phase, values, &e);
+  AssembleObjectiveVector(phase, values, &e, align_in_liver_);
   return e;
 }
 
@@ -173,7 +178,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   out.p_WFinal = now.p_WPath.back();
 
   Eigen::VectorXd k;
-  AssembleGainVector(out.phase, control_.gains, &k);
+  AssembleGainVector(out.phase, control_.gains, &k, align_in_liver_);
   // the commands in flight: the error they will leave, and the base the new step adds to
   const bool in_flight = control_.compensate_in_flight &&
                          (control_.dof == SteeringDof::kCartesian6 ? input.X_WE_commanded.has_value()

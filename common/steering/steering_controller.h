@@ -162,6 +162,7 @@ class SteeringController {
   Eigen::Vector3d needle_p_FBase_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d needle_axis_F_ = Eigen::Vector3d::UnitZ();
   bool roll_free_ = true;  // no bevel in the model: the needle's roll is free
+  bool align_in_liver_ = false;  // e_a on the base's direction in the liver (liver_alignment)
 };
 
 /// The iiwa model used by the controller: control.iiwa with the tool at the flange.

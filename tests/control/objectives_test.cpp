@@ -91,6 +91,16 @@ TEST(Objectives, PhaseRowCountsAndLayout) {
   EXPECT_EQ(k, (Eigen::VectorXd(6) << 0.9, 0.9, 0.9, 0.5, 0.2, 0.2).finished());
   AssembleGainVector(InsertionPhase::kInLiver, g, &k);
   EXPECT_EQ(k, (Eigen::VectorXd(5) << 0.9, 0.9, 0.9, 0.2, 0.2).finished());
+
+  // e_a kept in the liver (a flexible needle's direction): the layout of the skin phase
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInLiver, true).rows, 6);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInLiver, true).angle_row, 3);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInSkin, true).rows, 6);  // only phase 3 changes
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kBeforeSkin, true).rows, 4);
+  AssembleObjectiveVector(InsertionPhase::kInLiver, v, &e, true);
+  EXPECT_EQ(e, (Eigen::VectorXd(6) << 1, 2, 3, 4, 5, 6).finished());
+  AssembleGainVector(InsertionPhase::kInLiver, g, &k, true);
+  EXPECT_EQ(k, (Eigen::VectorXd(6) << 0.9, 0.9, 0.9, 0.5, 0.2, 0.2).finished());
 }
 
 TEST(Objectives, GainValidation) {

@@ -210,6 +210,21 @@ TEST(InverseScenarioLoaderTest, ReadsTheNeedleTiltBound) {
   }
 }
 
+// controller.liver_alignment: the default scenario's auto, auto without the key, the three
+// choices, and a bad one named by its key
+TEST(InverseScenarioLoaderTest, ReadsTheLiverAlignment) {
+  const std::string key = "  liver_alignment: auto";
+  EXPECT_EQ(Load(DefaultText()).loop.control.liver_alignment, LiverAlignment::kAuto);
+  const auto with = [&](const std::string& line) {
+    return Load(Edited(DefaultText(), key, line)).loop.control.liver_alignment;
+  };
+  EXPECT_EQ(with(""), LiverAlignment::kAuto);
+  EXPECT_EQ(with("  liver_alignment: none"), LiverAlignment::kNone);
+  EXPECT_EQ(with("  liver_alignment: base"), LiverAlignment::kBase);
+  const std::string bad = LoadError(Edited(DefaultText(), key, "  liver_alignment: tip"));
+  EXPECT_NE(bad.find("liver_alignment"), std::string::npos) << bad;
+}
+
 TEST(InverseScenarioLoaderTest, ReadsWhoseTipAdvancesThePath) {
   const std::string key = "    advance: commanded";
   auto with = [&](const std::string& line) { return Edited(DefaultText(), key, line); };

@@ -230,6 +230,46 @@ TEST(SteeringControllerTest, TheTiltBoundHoldsEveryCommandedNeedleAxis) {
   }
 }
 
+// controller.liver_alignment: e_a stays an objective in the liver for a flexible model needle
+// (auto) or when asked (base), on the base's direction whatever `alignment` says; not for a
+// rigid needle (auto) or when turned off (none). Checked on the objective vector of the liver
+// phase at a flange pose turned 0.05 rad off the planned direction: its row 3 is then that
+// angle (e_a, eq. 3.4, the base's axis against the path's direction)
+TEST(SteeringControllerTest, LiverAlignmentKeepsTheBaseDirectionAnObjectiveForAFlexibleNeedle) {
+  const TetMesh mesh = LoadLiver("liver_700");
+  const SteeringPathConfig path = MakePathConfig();
+  InverseModelConfig rigid = MakeModelConfig(1.0);
+  InverseModelConfig flexible = rigid;
+  flexible.needle_kind = ModelNeedleKind::kFlexible;
+  const Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(rigid.needle, path);
+  Eigen::Isometry3d turned = X_WE0;
+  turned.linear() = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()).toRotationMatrix() *
+                    X_WE0.linear();
+  struct Case {
+    const InverseModelConfig* model;
+    LiverAlignment setting;
+    AlignmentReference alignment;
+    int rows;
+  };
+  for (const Case& c : {Case{&rigid, LiverAlignment::kAuto, AlignmentReference::kTip, 5},
+                        Case{&flexible, LiverAlignment::kAuto, AlignmentReference::kTip, 6},
+                        Case{&flexible, LiverAlignment::kAuto, AlignmentReference::kBase, 6},
+                        Case{&flexible, LiverAlignment::kNone, AlignmentReference::kTip, 5},
+                        Case{&rigid, LiverAlignment::kBase, AlignmentReference::kTip, 6}}) {
+    SteeringControlConfig control;
+    control.liver_alignment = c.setting;
+    control.alignment = c.alignment;
+    SteeringController controller(*c.model, path, control, mesh, X_WE0);
+    const Eigen::VectorXd e = controller.EvaluateObjectives(turned, InsertionPhase::kInLiver);
+    const std::string name = Str(c.model == &rigid ? "rigid" : "flexible", " needle, setting ",
+                                 static_cast<int>(c.setting));
+    ASSERT_EQ(e.size(), c.rows) << name;
+    if (c.rows == 6) EXPECT_NEAR(e[3], 0.05, 1e-9) << name;
+    // the other phases keep the thesis's layout
+    EXPECT_EQ(controller.EvaluateObjectives(turned, InsertionPhase::kInSkin).size(), 6) << name;
+  }
+}
+
 TEST(SteeringControllerTest, BadRedundancySettingsAreRefusedWithTheirKey) {
   SteeringControlConfig c;
   c.null_space_gain = 1.5;
