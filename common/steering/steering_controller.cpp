@@ -30,7 +30,16 @@ SteeringController::SteeringController(const InverseModelConfig& model,
                                        const SteeringPathConfig& path,
                                        const SteeringControlConfig& control, const TetMesh& mesh,
                                        const Eigen::Isometry3d& X_WE0)
-    : control_((control.Validate(), control)), iiwa_(MakeFlangeIiwaConfig(control.iiwa)) {
+    : control_((control.Validate(), control)),
+      iiwa_(MakeFlangeIiwaConfig(control.iiwa)),
+      flange_ik_(iiwa_, [] {
+        Iiwa14IkConfig c;
+        c.max_restarts = 0;
+        c.null_space_gain = 0.0;
+        c.position_tolerance = 1e-10;
+        c.orientation_tolerance = 1e-10;
+        return c;
+      }()) {
   sim_ = std::make_unique<SteeringSimulation>(model, path, mesh, X_WE0);
   X_WN_step_ = sim_->X_WN();
   switch_distance_ = path.switching.switch_distance;
@@ -233,7 +242,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
       Eigen::Isometry3d X = CalcFlangePose(q_target);
       out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(), TiltPivot(X),
                                          control_.max_needle_tilt, &X);
-      if (out.tilt_limited) q_target = FollowFlangePose(q_target, X);
+      if (out.tilt_limited) q_target = flange_ik_.Solve(X, q_target).q;
     }
     out.q_target = out.valid ? ClampWithMargin(q_target) : input.q;
     out.X_WE_target = CalcFlangePose(out.q_target);
@@ -338,29 +347,6 @@ Vector7d SteeringController::CalcNullSpaceStep(const Vector7d& q) const {
 
 Eigen::Vector3d SteeringController::TiltPivot(const Eigen::Isometry3d& X_WF) const {
   return entry_known_ ? p_WC_ : Eigen::Vector3d(X_WF.translation());
-}
-
-Vector7d SteeringController::FollowFlangePose(const Vector7d& q0,
-                                              const Eigen::Isometry3d& X_WF_goal) const {
-  // Newton on the flange pose with the minimum-norm joint step J_F^T (J_F J_F^T)^-1 err: the
-  // turn back onto the tilt bound is small (about a step's rotation cap, 0.01 rad, once the
-  // needle rests on the bound), so a few iterations reach 1e-12
-  Vector7d q = q0;
-  for (int iteration = 0; iteration < 8; ++iteration) {
-    Iiwa14Kinematics kinematics;
-    iiwa_.CalcForwardKinematics(q, &kinematics);
-    Vector6d error;
-    error.head<3>() = X_WF_goal.translation() - kinematics.X_WT.translation();
-    error.tail<3>() = LogSO3(X_WF_goal.linear() * kinematics.X_WT.linear().transpose());
-    if (error.norm() < 1e-12) break;
-    Jacobian67 J_F;
-    iiwa_.CalcToolJacobian(kinematics, &J_F);  // the tool is the flange (MakeFlangeIiwaConfig)
-    const Eigen::Matrix<double, 6, 6> JJt = J_F * J_F.transpose();
-    const Vector7d dq = J_F.transpose() * JJt.ldlt().solve(error);
-    if (!dq.allFinite()) return q0;
-    q += dq;
-  }
-  return q;
 }
 
 Vector7d SteeringController::ClampWithMargin(const Vector7d& q) const {

@@ -24,6 +24,7 @@
 #include "common/core/samples.h"
 #include "common/mesh/tet_mesh.h"
 #include "common/robot/iiwa14.h"
+#include "common/robot/iiwa14_ik.h"
 #include "common/steering/steering_config.h"
 #include "common/steering/steering_simulation.h"
 
@@ -92,6 +93,9 @@ class SteeringController {
                      const SteeringControlConfig& control, const TetMesh& mesh,
                      const Eigen::Isometry3d& X_WE0);
   ~SteeringController();
+  // flange_ik_ refers to iiwa_: neither copied nor moved
+  SteeringController(const SteeringController&) = delete;
+  SteeringController& operator=(const SteeringController&) = delete;
 
   /// Before the first Update, for a controller that starts while the needle may already be in
   /// (SteeringSimulation::CatchUp): the model's needle is driven in to the measured flange pose
@@ -139,9 +143,6 @@ class SteeringController {
   /// The point the tilt bound turns the needle about (control.max_needle_tilt): the current
   /// entry point once known, else the flange's origin (outside the body).
   Eigen::Vector3d TiltPivot(const Eigen::Isometry3d& X_WF) const;
-  /// Joints near q0 whose flange pose is X_WF_goal (Newton, minimum-norm steps; q0 if a step
-  /// is not finite).
-  Vector7d FollowFlangePose(const Vector7d& q0, const Eigen::Isometry3d& X_WF_goal) const;
   /// q clamped into the iiwa's limits shrunk by control.joint_limit_margin.
   Vector7d ClampWithMargin(const Vector7d& q) const;
   /// The objective vector of `phase` from one evaluation of the frozen step.
@@ -149,6 +150,9 @@ class SteeringController {
 
   SteeringControlConfig control_;
   Iiwa14Model iiwa_;
+  // the joints of a flange pose turned back onto the tilt bound: the iiwa's IK from the law's
+  // joints, one descent (no restarts on other branches), no pull toward mid-range
+  Iiwa14InverseKinematics flange_ik_;
   std::unique_ptr<SteeringSimulation> sim_;
   int path_index_ = 0;
   double switch_distance_ = 0.0;  // (m)
