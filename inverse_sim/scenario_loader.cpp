@@ -163,13 +163,15 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight", "null_space_gain",
-                 "joint_limit_margin", "alignment", "max_needle_tilt", "liver_alignment"});
+                 "joint_limit_margin", "alignment", "max_needle_tilt", "liver_alignment",
+                 "liver_load"});
   const int alignment = ctl.ReadChoice("alignment", {"tip", "base"});
   if (alignment >= 0)
     s->loop.control.alignment = alignment == 0 ? AlignmentReference::kTip : AlignmentReference::kBase;
   ctl.Read("null_space_gain", &s->loop.control.null_space_gain);
   ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
   ctl.Read("max_needle_tilt", &s->loop.control.max_needle_tilt);
+  ctl.Read("liver_load", &s->loop.control.liver_load);
   const int liver_alignment = ctl.ReadChoice("liver_alignment", {"auto", "none", "base"});
   if (liver_alignment >= 0)
     s->loop.control.liver_alignment = std::array<LiverAlignment, 3>{
@@ -188,10 +190,11 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ReadFixedVector<7>(ctl, "joint_steps", &s->loop.control.joint_steps);
   if (ctl.Has("gains")) {
     const YamlReader g = ctl.Child("gains");
-    g.CheckKeys({"position", "angle", "entry"});
+    g.CheckKeys({"position", "angle", "entry", "load"});
     g.Read("position", &s->loop.control.gains.position);
     g.Read("angle", &s->loop.control.gains.angle);
     g.Read("entry", &s->loop.control.gains.entry);
+    g.Read("load", &s->loop.control.gains.load);
   }
   ctl.Read("regularization", &s->loop.control.law.regularization);
   ctl.Read("max_translation_step", &s->loop.control.law.max_translation_step);

@@ -50,7 +50,7 @@ InsertionPhase DetermineInsertionPhase(bool skin_punctured, bool liver_punctured
   return InsertionPhase::kBeforeSkin;
 }
 
-ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver) {
+ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver, bool liver_load) {
   ObjectiveLayout layout;
   layout.position_row = 0;
   switch (phase) {
@@ -72,6 +72,10 @@ ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver) {
         layout.entry_row = 3;
         layout.rows = 5;
       }
+      if (liver_load) {
+        layout.load_row = layout.rows;
+        layout.rows += 2;
+      }
       break;
   }
   NSIM_CHECK(layout.rows > 0, "unknown insertion phase ", static_cast<int>(phase));
@@ -79,18 +83,19 @@ ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver) {
 }
 
 void AssembleObjectiveVector(InsertionPhase phase, const ObjectiveValues& values,
-                             Eigen::VectorXd* e, bool align_in_liver) {
-  const ObjectiveLayout layout = GetObjectiveLayout(phase, align_in_liver);
+                             Eigen::VectorXd* e, bool align_in_liver, bool liver_load) {
+  const ObjectiveLayout layout = GetObjectiveLayout(phase, align_in_liver, liver_load);
   e->resize(layout.rows);
   e->segment<3>(layout.position_row) = values.e_p;
   if (layout.angle_row >= 0) (*e)[layout.angle_row] = values.e_a;
   if (layout.entry_row >= 0) e->segment<2>(layout.entry_row) = values.e_e;
+  if (layout.load_row >= 0) e->segment<2>(layout.load_row) = values.e_l;
 }
 
 void ObjectiveGains::Validate() const {
-  const double gains[3] = {position, angle, entry};
-  const char* names[3] = {"position", "angle", "entry"};
-  for (int i = 0; i < 3; ++i) {
+  const double gains[4] = {position, angle, entry, load};
+  const char* names[4] = {"position", "angle", "entry", "load"};
+  for (int i = 0; i < 4; ++i) {
     if (!(gains[i] > 0.0 && gains[i] <= 1.0)) {
       throw InputError(Str("control.gains.", names[i], " must be in (0, 1], got ", gains[i]));
     }
@@ -98,12 +103,13 @@ void ObjectiveGains::Validate() const {
 }
 
 void AssembleGainVector(InsertionPhase phase, const ObjectiveGains& gains, Eigen::VectorXd* k,
-                        bool align_in_liver) {
-  const ObjectiveLayout layout = GetObjectiveLayout(phase, align_in_liver);
+                        bool align_in_liver, bool liver_load) {
+  const ObjectiveLayout layout = GetObjectiveLayout(phase, align_in_liver, liver_load);
   k->resize(layout.rows);
   k->segment<3>(layout.position_row).setConstant(gains.position);
   if (layout.angle_row >= 0) (*k)[layout.angle_row] = gains.angle;
   if (layout.entry_row >= 0) k->segment<2>(layout.entry_row).setConstant(gains.entry);
+  if (layout.load_row >= 0) k->segment<2>(layout.load_row).setConstant(gains.load);
 }
 
 }  // namespace nsim

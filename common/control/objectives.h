@@ -9,6 +9,9 @@
 //   phase 3, in the liver:           [e_p, e_e]       5 rows
 //   phase 3 aligned (align_in_liver): [e_p, e_a, e_e] 6 rows: a flexible needle's direction,
 //     which e_p and e_e do not fix in the liver (SteeringControlConfig::liver_alignment)
+//   phase 3 with the liver's load (liver_load): e_l (2) appended after the others, 7 or 8
+//     rows: the lateral force of the liver on the needle as the needle's lateral displacement
+//     that would remove it (SteeringControlConfig::liver_load)
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -68,27 +71,36 @@ struct ObjectiveLayout {
   int position_row = 0;  ///< first row of e_p (always active)
   int angle_row = -1;    ///< row of e_a
   int entry_row = -1;    ///< first row of e_e
+  int load_row = -1;     ///< first row of e_l
 };
 
-/// The layout of a phase (see the file comment); align_in_liver keeps e_a in phase 3.
-ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver = false);
+/// The layout of a phase (see the file comment); align_in_liver keeps e_a in phase 3,
+/// liver_load adds e_l there.
+ObjectiveLayout GetObjectiveLayout(InsertionPhase phase, bool align_in_liver = false,
+                                   bool liver_load = false);
 
 /// All objective values at one configuration; e_e is ignored before the puncture.
 struct ObjectiveValues {
   Eigen::Vector3d e_p = Eigen::Vector3d::Zero();  ///< eq. 3.3 (m)
   double e_a = 0.0;                               ///< eq. 3.4 (rad)
   Eigen::Vector2d e_e = Eigen::Vector2d::Zero();  ///< eq. 3.5 (m)
+  /// The liver's lateral load on the needle as a displacement (m): K_t^-1 [t_1 t_2]^T F, F the
+  /// liver's resultant force on the needle, t_1, t_2 across the needle, K_t the liver's 2 x 2
+  /// lateral stiffness against the needle's translation (SteeringController).
+  Eigen::Vector2d e_l = Eigen::Vector2d::Zero();
 };
 
 /// Stacks the active objectives of `phase` into e (resized to the layout's rows).
 void AssembleObjectiveVector(InsertionPhase phase, const ObjectiveValues& values,
-                             Eigen::VectorXd* e, bool align_in_liver = false);
+                             Eigen::VectorXd* e, bool align_in_liver = false,
+                             bool liver_load = false);
 
 /// Control gains per objective (the vector k of eq. 3.9 / A.3 repeats each on its rows).
 struct ObjectiveGains {
   double position = 0.5;  ///< gain on e_p rows, in (0, 1]
   double angle = 0.5;     ///< gain on the e_a row, in (0, 1]
   double entry = 0.5;     ///< gain on e_e rows, in (0, 1]
+  double load = 0.5;      ///< gain on e_l rows, in (0, 1]
 
   /// Throws InputError naming the first gain outside (0, 1], e.g.
   /// "control.gains.angle must be in (0, 1], got 0".
@@ -97,6 +109,6 @@ struct ObjectiveGains {
 
 /// The per-row gain vector k of `phase` (resized to the layout's rows).
 void AssembleGainVector(InsertionPhase phase, const ObjectiveGains& gains, Eigen::VectorXd* k,
-                        bool align_in_liver = false);
+                        bool align_in_liver = false, bool liver_load = false);
 
 }  // namespace nsim

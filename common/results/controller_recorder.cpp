@@ -112,10 +112,12 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"liver_alignment", c.control.liver_alignment == LiverAlignment::kAuto   ? "auto"
                                 : c.control.liver_alignment == LiverAlignment::kNone ? "none"
                                                                                       : "base"},
+            {"liver_load", c.control.liver_load},
             {"gains",
              {{"position", c.control.gains.position},
               {"angle", c.control.gains.angle},
-              {"entry", c.control.gains.entry}}},
+              {"entry", c.control.gains.entry},
+              {"load", c.control.gains.load}}},
             {"regularization", c.control.law.regularization},
             {"compensate_in_flight", c.control.compensate_in_flight},
             {"path_advance", c.path.advance == PathAdvance::kCommanded ? "commanded" : "measured"},

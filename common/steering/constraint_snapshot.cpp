@@ -1,5 +1,6 @@
 #include "common/steering/constraint_snapshot.h"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 
@@ -248,6 +249,18 @@ ConstraintSolveReport ConstraintSnapshot::Solve(
   const ConstraintSolveReport report =
       SolveConstraintLaws(ws.W, ws.delta, groups_, config_, ws.solver, ws.lambda);
 
+  // the forces on the needle's moving points: lambda_i times each moving term's direction
+  ws.needle_force.setZero();
+  for (int i = 0; i < m; ++i) {
+    const Row& row = rows_[i];
+    for (int t = row.first_term; t < row.first_term + row.num_terms; ++t) {
+      const Term& term = terms_[t];
+      if (term.body_point >= 0 || !term.moving) continue;
+      const Eigen::Vector3d d = row.turns ? Eigen::Vector3d(R_rel * term.direction) : term.direction;
+      ws.needle_force += ws.lambda[i] * d;
+    }
+  }
+
   // probes: x(q) = x_free(q) + P H^T lambda
   ws.force.noalias() = ws.H.transpose() * ws.lambda;  // 3B (N)
   probe_positions->resize(probe_free_.size());
@@ -256,6 +269,36 @@ ConstraintSolveReport ConstraintSnapshot::Solve(
     if (shifted) (*probe_positions)[q] += probe_sensitivity_.middleRows<3>(3 * q) * pose_delta;
   }
   return report;
+}
+
+Eigen::Matrix3d ConstraintSnapshot::CalcNeedleTranslationStiffness(SnapshotWorkspace& ws) const {
+  const int m = num_rows();
+  const int B = num_body_points_;
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(m, 3);
+  bool any = false;
+  ws.H.setZero(m, 3 * B);
+  for (int i = 0; i < m; ++i) {
+    const Row& row = rows_[i];
+    for (int t = row.first_term; t < row.first_term + row.num_terms; ++t) {
+      const Term& term = terms_[t];
+      if (term.body_point >= 0) {
+        ws.H.block<1, 3>(i, 3 * term.body_point) += term.direction.transpose();
+      } else if (term.moving) {
+        D.row(i) += term.direction.transpose();
+        any = true;
+      }
+    }
+  }
+  if (!any) return Eigen::Matrix3d::Zero();
+  ws.HG.noalias() = ws.H * G_;
+  ws.W.noalias() = ws.HG * ws.H.transpose();
+  ApplyRowSoftness(rows_, ws.W);
+  // W lambda = -delta and a translation dp adds D dp to delta: the force D^T lambda changes by
+  // -D^T W^-1 D dp
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(ws.W);
+  if (ldlt.info() != Eigen::Success) return Eigen::Matrix3d::Zero();
+  const Eigen::Matrix3d K = D.transpose() * ldlt.solve(D);
+  return K.allFinite() ? Eigen::Matrix3d(0.5 * (K + K.transpose())) : Eigen::Matrix3d::Zero();
 }
 
 }  // namespace nsim

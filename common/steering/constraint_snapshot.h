@@ -80,6 +80,10 @@ struct SnapshotWorkspace {
   Eigen::VectorXd force;    // 3B
   Eigen::VectorXd shift;    // 3B: free-position shifts of the body points (m)
   ConstraintWorkspace solver;
+  /// The resultant of the constraint forces on the needle's moving kinematic points after
+  /// Solve (world, N): each row's multiplier times its needle terms' directions. Zero for a
+  /// needle that is a body (a beam) rather than kinematic points.
+  Eigen::Vector3d needle_force = Eigen::Vector3d::Zero();
 };
 
 class ConstraintSnapshot {
@@ -119,6 +123,13 @@ class ConstraintSnapshot {
   /// The report says whether the solve converged (see constraint_solver.h).
   ConstraintSolveReport Solve(const Eigen::Isometry3d& X_WN_new, SnapshotWorkspace& workspace,
                               std::vector<Eigen::Vector3d>* probe_positions) const;
+
+  /// The stiffness of the captured problem against a rigid translation of the needle's moving
+  /// kinematic points, at the captured pose: K = D^T W^-1 D (N/m, symmetric), D the rows'
+  /// needle directions, so that a translation dp changes the needle's resultant force by
+  /// -K dp (the rows solved as bilateral, the softness applied as in Solve). Zero without
+  /// moving points or rows.
+  Eigen::Matrix3d CalcNeedleTranslationStiffness(SnapshotWorkspace& workspace) const;
 
   int num_rows() const { return static_cast<int>(rows_.size()); }
   int num_body_points() const { return num_body_points_; }

@@ -104,6 +104,8 @@ void SteeringControlConfig::Validate() const {
   if (!(null_space_gain >= 0.0 && null_space_gain <= 1.0))
     throw InputError(Str("controller.null_space_gain must be in [0, 1] (1/step), got ",
                          null_space_gain));
+  if (!(liver_load >= 0.0 && std::isfinite(liver_load)))
+    throw InputError(Str("controller.liver_load must be finite and >= 0, got ", liver_load));
   if (!(max_needle_tilt > 0.0 && max_needle_tilt <= M_PI))
     throw InputError(
         Str("controller.max_needle_tilt must be in (0, pi] (rad), got ", max_needle_tilt));

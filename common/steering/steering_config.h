@@ -189,6 +189,16 @@ struct SteeringControlConfig {
   /// whatever `alignment` says: the tip's direction is the bent needle's) in the liver; kAuto
   /// (the default) chooses kBase for a flexible model needle, kNone for a rigid one.
   LiverAlignment liver_alignment = LiverAlignment::kAuto;
+  /// The weight w of e_l in the liver (YAML controller.liver_load, >= 0; 0: off, the thesis's
+  /// objectives): the liver's lateral force on a rigid model needle, as the lateral needle
+  /// displacement that would remove it, times w, is an objective too (objectives.h). In the
+  /// liver the tissue holds the tip, so a lateral needle motion moves tip and target together
+  /// (e_p's lateral singular values are a few 1e-3): e_p and e_e leave the needle free to drag
+  /// the liver, and the law's steps toward a lateral e_p did, by up to 10 mm across the
+  /// breathing (README "Control under latency"). With w well above those singular values and
+  /// well below 1, e_l decides only the directions e_p barely sees. No effect for a flexible
+  /// model needle (its load is not computed).
+  double liver_load = 0.0;
   /// Include e_e (eq. 3.5) in phase 3 even when the skin entry is unknown, using the liver
   /// entry point (scenes without a skin).
   bool liver_entry_objective = true;

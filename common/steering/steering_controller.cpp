@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <cmath>
 
@@ -50,6 +51,7 @@ SteeringController::SteeringController(const InverseModelConfig& model,
   align_in_liver_ = control_.liver_alignment == LiverAlignment::kBase ||
                     (control_.liver_alignment == LiverAlignment::kAuto &&
                      model.needle_kind == ModelNeedleKind::kFlexible);
+  liver_load_ = control_.liver_load > 0.0 && model.needle_kind != ModelNeedleKind::kFlexible;
 }
 
 SteeringController::~SteeringController() = default;
@@ -79,8 +81,9 @@ Eigen::VectorXd SteeringController::CalcObjectives(const SteeringEvaluation& eva
     const Eigen::Vector3d p_WC = eval.X_WN * (X_WN_step_.inverse() * p_WC_);
     values.e_e = CalcEntryObjective(entry_plane_, p_WC);
   }
+  values.e_l = load_map_ * eval.needle_force;
   Eigen::VectorXd e;
-  AssembleObjectiveVector(phase, values, &e, align_in_liver_);
+  AssembleObjectiveVector(phase, values, &e, align_in_liver_, liver_load_);
   return e;
 }
 
@@ -154,6 +157,9 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   out.path_index = path_index_;
   out.reached_end = path_index_ == static_cast<int>(sim_->path().size()) - 1;
 
+  // e_l's map for this step (the liver's lateral stiffness at the unperturbed needle)
+  if (liver_load_ && out.phase == InsertionPhase::kInLiver) UpdateLoadMap();
+
   // Jacobian by central differences (eq. 3.6 / A.2)
   const auto t2 = Clock::now();
   const int n = control_.dof == SteeringDof::kCartesian6 ? 6 : 7;
@@ -187,7 +193,7 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   out.p_WFinal = now.p_WPath.back();
 
   Eigen::VectorXd k;
-  AssembleGainVector(out.phase, control_.gains, &k, align_in_liver_);
+  AssembleGainVector(out.phase, control_.gains, &k, align_in_liver_, liver_load_);
   // the commands in flight: the error they will leave, and the base the new step adds to
   const bool in_flight = control_.compensate_in_flight &&
                          (control_.dof == SteeringDof::kCartesian6 ? input.X_WE_commanded.has_value()
@@ -343,6 +349,23 @@ Vector7d SteeringController::CalcNullSpaceStep(const Vector7d& q) const {
   const Vector7d correction = J_N.transpose() * JJt.ldlt().solve(needle_drift);
   const Vector7d corrected = step - correction;
   return corrected.allFinite() ? corrected : Vector7d::Zero();
+}
+
+void SteeringController::UpdateLoadMap() {
+  load_map_.setZero();
+  const Eigen::Matrix3d K = sim_->CalcNeedleTranslationStiffness(workspace_);
+  Eigen::Vector3d t1, t2;
+  CalcTangentBasis(X_WN_step_.linear().col(2).normalized(), t1, t2);
+  Eigen::Matrix<double, 3, 2> T;
+  T << t1, t2;
+  const Eigen::Matrix2d K_t = T.transpose() * K * T;
+  // a translation dp across the needle changes the force by -K dp: e_l = K_t^-1 T^T F is the
+  // displacement across the needle that removes the lateral force (only a well-posed K_t)
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(K_t);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues()[0] > 1e-6 * eig.eigenvalues()[1]) ||
+      !(eig.eigenvalues()[1] > 0.0))
+    return;
+  load_map_ = control_.liver_load * K_t.inverse() * T.transpose();
 }
 
 Eigen::Vector3d SteeringController::TiltPivot(const Eigen::Isometry3d& X_WF) const {

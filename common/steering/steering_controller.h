@@ -140,6 +140,8 @@ class SteeringController {
   /// the last commanded pose.
   Eigen::Vector3d CalcSwitchingTip(const SteeringInput& input, const Eigen::Isometry3d& X_WF,
                                    const Eigen::Vector3d& p_WTip) const;
+  /// The map of e_l for the step (load_map_) from the frozen step's stiffness.
+  void UpdateLoadMap();
   /// The point the tilt bound turns the needle about (control.max_needle_tilt): the current
   /// entry point once known, else the flange's origin (outside the body).
   Eigen::Vector3d TiltPivot(const Eigen::Isometry3d& X_WF) const;
@@ -167,6 +169,9 @@ class SteeringController {
   Eigen::Vector3d needle_axis_F_ = Eigen::Vector3d::UnitZ();
   bool roll_free_ = true;  // no bevel in the model: the needle's roll is free
   bool align_in_liver_ = false;  // e_a on the base's direction in the liver (liver_alignment)
+  bool liver_load_ = false;      // e_l in the liver (liver_load, rigid model needle)
+  // e_l = load_map_ F, fixed for a step: K_t^-1 [t_1 t_2]^T (m/N), zero without a stiffness
+  Eigen::Matrix<double, 2, 3> load_map_ = Eigen::Matrix<double, 2, 3>::Zero();
 };
 
 /// The iiwa model used by the controller: control.iiwa with the tool at the flange.

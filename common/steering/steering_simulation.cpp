@@ -425,6 +425,7 @@ SteeringEvaluation SteeringSimulation::EvaluateAt(const Eigen::Isometry3d& X_WF,
   std::vector<Eigen::Vector3d> probes;
   if (has_snapshot_) {
     out.solve = snapshot_.Solve(out.X_WN, workspace, &probes);
+    if (!beam_body_) out.needle_force = workspace.needle_force;
     if (beam_body_) {
       // the bent needle's corrected tip node: position, and orientation exp(phi) R_start
       const size_t q = probes_.size();
@@ -441,6 +442,12 @@ SteeringEvaluation SteeringSimulation::EvaluateAt(const Eigen::Isometry3d& X_WF,
   out.p_WPath.resize(path_.size());
   for (size_t i = 0; i < path_.size(); ++i) out.p_WPath[i] = probes[path_probe_[i]] + path_[i].offset;
   return out;
+}
+
+Eigen::Matrix3d SteeringSimulation::CalcNeedleTranslationStiffness(
+    SnapshotWorkspace& workspace) const {
+  if (!has_snapshot_ || beam_body_) return Eigen::Matrix3d::Zero();
+  return snapshot_.CalcNeedleTranslationStiffness(workspace);
 }
 
 std::vector<Eigen::Vector3d> SteeringSimulation::CalcPathPositions() const {

@@ -71,6 +71,9 @@ struct SteeringEvaluation {
   /// the beam's tip node for the flexible one.
   Eigen::Matrix3d R_WTip = Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector3d> p_WPath;                    ///< every path target (m)
+  /// The tissue's constraint force on a rigid needle (world, N): the resultant over its
+  /// points (ConstraintSnapshot's needle_force); zero for a flexible needle or no snapshot.
+  Eigen::Vector3d needle_force = Eigen::Vector3d::Zero();
   ConstraintSolveReport solve;
 };
 
@@ -164,6 +167,9 @@ class SteeringSimulation {
   /// The end of the last step re-solved with the flange at X_WF (constraint-space solve on the
   /// frozen step; no side effects). Before the first Step: kinematic only (rest tissue).
   SteeringEvaluation EvaluateAt(const Eigen::Isometry3d& X_WF, SnapshotWorkspace& workspace) const;
+  /// The frozen step's stiffness against a translation of the rigid needle (N/m; ConstraintSnapshot::
+  /// CalcNeedleTranslationStiffness); zero for a flexible needle or before the first step.
+  Eigen::Matrix3d CalcNeedleTranslationStiffness(SnapshotWorkspace& workspace) const;
 
   /// Flange pose that puts the tip at the path's start, the needle along the path.
   static Eigen::Isometry3d CalcStartFlangePose(const NeedleConfig& needle,

@@ -7,6 +7,8 @@
 // (configs/scenarios/liver_breathing.yaml: the 2001-node model meshed apart from the patient's
 // liver, its solver settings, constraint compliance, path and law, 12 perturbations), the
 // needle ~3 cm into the model's liver: the "control step" goal.
+// BM_ControlStepScenarioWithoutLoad: the same without the liver's load objective
+// (controller.liver_load 0: the thesis's objectives), for its cost.
 // Run single-threaded: OPENBLAS_NUM_THREADS=1 steering_bench --benchmark_repetitions=5
 // --benchmark_report_aggregates_only=true
 
@@ -137,10 +139,11 @@ void BM_SnapshotSolveContact(benchmark::State& state) { RunSnapshotSolve(state, 
 
 // the default scenario's controller: the pose advanced along its plan from the start pose, 2 mm
 // a step, until the tip is kScenarioDepth past the entry, the markers at rest
-void BM_ControlStepScenario(benchmark::State& state) {
+void RunControlStepScenario(benchmark::State& state, bool liver_load) {
   constexpr double kScenarioDepth = 0.045;  // the liver starts ~1.5 cm below the skin entry
-  const InverseScenario scenario = LoadInverseScenario(
+  InverseScenario scenario = LoadInverseScenario(
       std::string(NSIM_SOURCE_DIR) + "/configs/scenarios/liver_breathing.yaml");
+  if (!liver_load) scenario.loop.control.liver_load = 0.0;
   const ControllerLoopConfig& loop = scenario.loop;
   const TetMesh mesh = ReadGmshMesh(scenario.mesh_path);
   const Eigen::Isometry3d X_WF0 = SteeringSimulation::CalcStartFlangePose(loop.model.needle, loop.path);
@@ -162,6 +165,10 @@ void BM_ControlStepScenario(benchmark::State& state) {
   TimeControlSteps(state, controller, input);
   state.counters["nodes"] = mesh.num_nodes();
 }
+void BM_ControlStepScenario(benchmark::State& state) { RunControlStepScenario(state, true); }
+void BM_ControlStepScenarioWithoutLoad(benchmark::State& state) {
+  RunControlStepScenario(state, false);
+}
 
 void BM_ControlStep12(benchmark::State& state) { RunControlStep(state, SteeringDof::kCartesian6); }
 void BM_ControlStep14(benchmark::State& state) { RunControlStep(state, SteeringDof::kJoint7); }
@@ -172,6 +179,7 @@ void BM_ControlStep12Flexible(benchmark::State& state) {
 BENCHMARK(BM_PlainStep)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep12)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStepScenario)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ControlStepScenarioWithoutLoad)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep14)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PlainStepFlexible)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep12Flexible)->Unit(benchmark::kMillisecond)->MinTime(2.0);

@@ -101,6 +101,26 @@ TEST(Objectives, PhaseRowCountsAndLayout) {
   EXPECT_EQ(e, (Eigen::VectorXd(6) << 1, 2, 3, 4, 5, 6).finished());
   AssembleGainVector(InsertionPhase::kInLiver, g, &k, true);
   EXPECT_EQ(k, (Eigen::VectorXd(6) << 0.9, 0.9, 0.9, 0.5, 0.2, 0.2).finished());
+
+  // e_l (the liver's load) appended in the liver only, after e_e, with or without e_a
+  v.e_l = Eigen::Vector2d(7, 8);
+  g.load = 0.3;
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInLiver, false, true).rows, 7);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInLiver, false, true).load_row, 5);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInLiver, true, true).rows, 8);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInLiver, true, true).load_row, 6);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInLiver).load_row, -1);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInSkin, false, true).rows, 6);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kInSkin, false, true).load_row, -1);
+  EXPECT_EQ(GetObjectiveLayout(InsertionPhase::kBeforeSkin, false, true).rows, 4);
+  AssembleObjectiveVector(InsertionPhase::kInLiver, v, &e, false, true);
+  EXPECT_EQ(e, (Eigen::VectorXd(7) << 1, 2, 3, 5, 6, 7, 8).finished());
+  AssembleObjectiveVector(InsertionPhase::kInLiver, v, &e, true, true);
+  EXPECT_EQ(e, (Eigen::VectorXd(8) << 1, 2, 3, 4, 5, 6, 7, 8).finished());
+  AssembleObjectiveVector(InsertionPhase::kInSkin, v, &e, false, true);
+  EXPECT_EQ(e, (Eigen::VectorXd(6) << 1, 2, 3, 4, 5, 6).finished());
+  AssembleGainVector(InsertionPhase::kInLiver, g, &k, false, true);
+  EXPECT_EQ(k, (Eigen::VectorXd(7) << 0.9, 0.9, 0.9, 0.2, 0.2, 0.3, 0.3).finished());
 }
 
 TEST(Objectives, GainValidation) {
@@ -116,6 +136,14 @@ TEST(Objectives, GainValidation) {
   EXPECT_NO_THROW(g.Validate());
   g.entry = 1.5;
   EXPECT_THROW(g.Validate(), InputError);
+  g.entry = 1.0;
+  g.load = -0.1;
+  try {
+    g.Validate();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "control.gains.load must be in (0, 1], got -0.1");
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <vector>
 
 #include "common/constraints/constraint_solver.h"
@@ -216,6 +217,91 @@ TEST(ConstraintSnapshotTest, HeldFrictionReproducesTheStepAndDropsTheFrictionRow
   const ConstraintSolveReport moved = snapshot.Solve(PerturbedPose(), ws, &probes);
   EXPECT_TRUE(moved.converged);
   EXPECT_EQ(moved.method, ConstraintMethod::kActiveSet);
+}
+
+// the needle's load (SnapshotWorkspace::needle_force) at a perturbed pose is the force of the
+// full solve's rows on the points that move with the needle: each row's multiplier times its
+// needle term's direction, summed
+TEST(ConstraintSnapshotTest, NeedleLoadIsTheFullSolvesForceOnTheNeedlePoints) {
+  Step step;
+  step.Build(CapturedPose(), CapturedPose());
+  ConstraintSolver solver;
+  solver.Assemble(step.set);
+  solver.SolveMultipliers(step.set);
+  ConstraintSnapshot snapshot;
+  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  const Eigen::Isometry3d X_new = PerturbedPose();
+  SnapshotWorkspace ws;
+  std::vector<Eigen::Vector3d> probes;
+  ASSERT_TRUE(snapshot.Solve(X_new, ws, &probes).converged);
+
+  Step moved;
+  moved.Build(X_new, CapturedPose());
+  ConstraintSolver full_solver;
+  ConstraintSolveReport full;
+  SolveFully(moved, full_solver, &full);
+  ASSERT_TRUE(full.converged);
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  for (int i = 0; i < moved.set.num_rows(); ++i) {
+    const ConstraintRow& row = moved.set.rows()[i];
+    for (int t = row.first_term; t < row.first_term + row.num_terms; ++t) {
+      const ConstraintTerm& term = moved.set.term(t);
+      if (!moved.moves_with_needle[term.point]) continue;
+      force += full_solver.lambda()[i] * term.direction;
+    }
+  }
+  ASSERT_GT(force.norm(), 1e-3) << "no load on the needle: the comparison is trivial";
+  EXPECT_LT((ws.needle_force - force).norm(), 1e-10 * force.norm());
+}
+
+// CalcNeedleTranslationStiffness is minus the derivative of the needle's force with respect to
+// a translation of the needle (central differences of Solve; the friction held, so that the rows
+// left are bilateral and a closed contact, and the small translations change no active set),
+// symmetric and positive semi-definite
+TEST(ConstraintSnapshotTest, NeedleTranslationStiffnessIsMinusTheForceDerivative) {
+  Step step;
+  step.Build(CapturedPose(), CapturedPose());
+  ConstraintSolver solver;
+  solver.Assemble(step.set);
+  solver.SolveMultipliers(step.set);
+  ConstraintSnapshot snapshot;
+  snapshot.set_hold_friction(true);
+  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  SnapshotWorkspace ws;
+  const Eigen::Matrix3d K = snapshot.CalcNeedleTranslationStiffness(ws);
+  std::vector<Eigen::Vector3d> probes;
+  const double h = 1e-7;
+  Eigen::Matrix3d K_fd;
+  for (int j = 0; j < 3; ++j) {
+    Eigen::Isometry3d plus = CapturedPose(), minus = CapturedPose();
+    plus.translation()[j] += h;
+    minus.translation()[j] -= h;
+    const ConstraintSolveReport a = snapshot.Solve(plus, ws, &probes);
+    const Eigen::Vector3d f_plus = ws.needle_force;
+    const ConstraintSolveReport b = snapshot.Solve(minus, ws, &probes);
+    ASSERT_TRUE(a.converged && b.converged);
+    ASSERT_EQ(a.num_separated, 0);
+    ASSERT_EQ(b.num_separated, 0);
+    K_fd.col(j) = -(f_plus - ws.needle_force) / (2 * h);
+  }
+  ASSERT_GT(K.norm(), 1.0);
+  EXPECT_LT((K - K_fd).norm(), 1e-6 * K.norm()) << "K\n" << K << "\nfinite differences\n" << K_fd;
+  EXPECT_LT((K - K.transpose()).norm(), 1e-12 * K.norm());
+  EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(K).eigenvalues().minCoeff(),
+            -1e-9 * K.norm());
+  // no rows on the needle: no stiffness
+  Step anchor_only;
+  anchor_only.set.Clear();
+  const int b = anchor_only.set.AddBody(anchor_only.body);
+  const Eigen::Vector3d x0 = anchor_only.body.start_positions().col(0);
+  anchor_only.set.AddBilateral(anchor_only.set.AddNodePoint(b, 0, 1),
+                               anchor_only.set.AddKinematicPoint(x0, x0), Eigen::Matrix3d::Identity());
+  ConstraintSolver anchor_solver;
+  anchor_solver.Assemble(anchor_only.set);
+  anchor_solver.SolveMultipliers(anchor_only.set);
+  ConstraintSnapshot none;
+  none.Capture(anchor_only.set, anchor_solver, 0, std::vector<char>(2, 0), CapturedPose(), Probes());
+  EXPECT_EQ(none.CalcNeedleTranslationStiffness(ws), Eigen::Matrix3d::Zero());
 }
 
 TEST(ConstraintSnapshotTest, RejectsCoulombFrictionContacts) {

@@ -225,6 +225,23 @@ TEST(InverseScenarioLoaderTest, ReadsTheLiverAlignment) {
   EXPECT_NE(bad.find("liver_alignment"), std::string::npos) << bad;
 }
 
+TEST(InverseScenarioLoaderTest, ReadsTheLiverLoadWeightAndGain) {
+  const std::string key = "  liver_load: 0.1";
+  const InverseScenario defaults = Load(DefaultText());
+  EXPECT_EQ(defaults.loop.control.liver_load, 0.1);
+  EXPECT_EQ(defaults.loop.control.gains.load, 0.2);
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "")).loop.control.liver_load, 0.0);  // off
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "  liver_load: 0.05")).loop.control.liver_load, 0.05);
+  const std::string negative = LoadError(Edited(DefaultText(), key, "  liver_load: -0.1"));
+  EXPECT_NE(negative.find("controller.liver_load must be finite and >= 0, got -0.1"),
+            std::string::npos)
+      << negative;
+  const std::string word = LoadError(Edited(DefaultText(), key, "  liver_load: yes"));
+  EXPECT_NE(word.find("liver_load"), std::string::npos) << word;
+  const std::string gain = LoadError(Edited(DefaultText(), "load: 0.2}", "load: 0}"));
+  EXPECT_NE(gain.find("gains.load must be in (0, 1]"), std::string::npos) << gain;
+}
+
 TEST(InverseScenarioLoaderTest, ReadsWhoseTipAdvancesThePath) {
   const std::string key = "    advance: commanded";
   auto with = [&](const std::string& line) { return Edited(DefaultText(), key, line); };
