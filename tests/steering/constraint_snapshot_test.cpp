@@ -83,6 +83,14 @@ std::vector<Eigen::Vector3d> SolveFully(Step& step, ConstraintSolver& solver,
   return out;
 }
 
+// the step built at the captured pose, solved, and captured in `snapshot`
+void SolveAndCapture(Step& step, ConstraintSolver& solver, ConstraintSnapshot& snapshot) {
+  step.Build(CapturedPose(), CapturedPose());
+  solver.Assemble(step.set);
+  solver.SolveMultipliers(step.set);
+  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+}
+
 TEST(ConstraintSnapshotTest, CapturedPoseGivesTheStepSolve) {
   Step step;
   step.Build(CapturedPose(), CapturedPose());
@@ -115,12 +123,9 @@ TEST(ConstraintSnapshotTest, CapturedPoseGivesTheStepSolve) {
 
 TEST(ConstraintSnapshotTest, PerturbedPoseGivesTheFullSolveWithTheNeedleMoved) {
   Step step;
-  step.Build(CapturedPose(), CapturedPose());
   ConstraintSolver solver;
-  solver.Assemble(step.set);
-  solver.SolveMultipliers(step.set);
   ConstraintSnapshot snapshot;
-  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  SolveAndCapture(step, solver, snapshot);
   const Eigen::Isometry3d X_new = PerturbedPose();
   SnapshotWorkspace ws;
   std::vector<Eigen::Vector3d> probes;
@@ -224,12 +229,9 @@ TEST(ConstraintSnapshotTest, HeldFrictionReproducesTheStepAndDropsTheFrictionRow
 // needle term's direction, summed
 TEST(ConstraintSnapshotTest, NeedleLoadIsTheFullSolvesForceOnTheNeedlePoints) {
   Step step;
-  step.Build(CapturedPose(), CapturedPose());
   ConstraintSolver solver;
-  solver.Assemble(step.set);
-  solver.SolveMultipliers(step.set);
   ConstraintSnapshot snapshot;
-  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  SolveAndCapture(step, solver, snapshot);
   const Eigen::Isometry3d X_new = PerturbedPose();
   SnapshotWorkspace ws;
   std::vector<Eigen::Vector3d> probes;
@@ -260,13 +262,10 @@ TEST(ConstraintSnapshotTest, NeedleLoadIsTheFullSolvesForceOnTheNeedlePoints) {
 // symmetric and positive semi-definite
 TEST(ConstraintSnapshotTest, NeedleTranslationStiffnessIsMinusTheForceDerivative) {
   Step step;
-  step.Build(CapturedPose(), CapturedPose());
   ConstraintSolver solver;
-  solver.Assemble(step.set);
-  solver.SolveMultipliers(step.set);
   ConstraintSnapshot snapshot;
   snapshot.set_hold_friction(true);
-  snapshot.Capture(step.set, solver, 0, step.moves_with_needle, CapturedPose(), Probes());
+  SolveAndCapture(step, solver, snapshot);
   SnapshotWorkspace ws;
   const Eigen::Matrix3d K = snapshot.CalcNeedleTranslationStiffness(ws);
   std::vector<Eigen::Vector3d> probes;

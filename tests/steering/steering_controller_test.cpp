@@ -246,18 +246,30 @@ TEST(SteeringControllerTest, TheTiltBoundHoldsEveryCommandedNeedleAxis) {
   }
 }
 
+// the coarse liver, the test path, and the model with a rigid and with a flexible needle
+struct RigidAndFlexibleModels {
+  TetMesh mesh = LoadLiver("liver_700");
+  SteeringPathConfig path = MakePathConfig();
+  InverseModelConfig rigid = MakeModelConfig(1.0);
+  InverseModelConfig flexible = [this] {
+    InverseModelConfig c = rigid;
+    c.needle_kind = ModelNeedleKind::kFlexible;
+    return c;
+  }();
+  Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(rigid.needle, path);
+};
+
 // controller.liver_alignment: e_a stays an objective in the liver for a flexible model needle
 // (auto) or when asked (base), on the base's direction whatever `alignment` says; not for a
 // rigid needle (auto) or when turned off (none). Checked on the objective vector of the liver
 // phase at a flange pose turned 0.05 rad off the planned direction: its row 3 is then that
 // angle (e_a, eq. 3.4, the base's axis against the path's direction)
 TEST(SteeringControllerTest, LiverAlignmentKeepsTheBaseDirectionAnObjectiveForAFlexibleNeedle) {
-  const TetMesh mesh = LoadLiver("liver_700");
-  const SteeringPathConfig path = MakePathConfig();
-  InverseModelConfig rigid = MakeModelConfig(1.0);
-  InverseModelConfig flexible = rigid;
-  flexible.needle_kind = ModelNeedleKind::kFlexible;
-  const Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(rigid.needle, path);
+  const RigidAndFlexibleModels m;
+  const TetMesh& mesh = m.mesh;
+  const SteeringPathConfig& path = m.path;
+  const InverseModelConfig &rigid = m.rigid, &flexible = m.flexible;
+  const Eigen::Isometry3d& X_WE0 = m.X_WE0;
   Eigen::Isometry3d turned = X_WE0;
   turned.linear() = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()).toRotationMatrix() *
                     X_WE0.linear();
@@ -304,12 +316,11 @@ TEST(SteeringControllerTest, TheLiverLoadObjectiveLoadsTheLiverLessAndStillReach
               without.mean_lateral_load, without.max_lateral_load, with.mean_lateral_load,
               with.max_lateral_load, 1e3 * without.final_error, 1e3 * with.final_error);
 
-  const TetMesh mesh = LoadLiver("liver_700");
-  const SteeringPathConfig path = MakePathConfig();
-  InverseModelConfig rigid = MakeModelConfig(1.0);
-  InverseModelConfig flexible = rigid;
-  flexible.needle_kind = ModelNeedleKind::kFlexible;
-  const Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(rigid.needle, path);
+  const RigidAndFlexibleModels m;
+  const TetMesh& mesh = m.mesh;
+  const SteeringPathConfig& path = m.path;
+  const InverseModelConfig &rigid = m.rigid, &flexible = m.flexible;
+  const Eigen::Isometry3d& X_WE0 = m.X_WE0;
   SteeringControlConfig control;
   control.liver_load = 0.1;
   control.liver_alignment = LiverAlignment::kNone;
