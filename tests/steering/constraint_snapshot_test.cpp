@@ -2,7 +2,8 @@
 // needle rows that turn with the needle (lateral bilateral rows and axial friction bounded by
 // the lateral force) and a contact on the needle tip (unilateral, its normal fixed). At the
 // captured pose it gives the multipliers and corrected positions of the step's own solve; at a
-// perturbed pose those of a full solve of the same step with the needle moved.
+// perturbed pose those of a full solve of the same step with the needle moved, and the
+// resultant force on the needle that solve's.
 
 #include "common/steering/constraint_snapshot.h"
 
@@ -145,6 +146,17 @@ TEST(ConstraintSnapshotTest, PerturbedPoseGivesTheFullSolveWithTheNeedleMoved) {
     EXPECT_LT((probes[q] - expected[q]).norm(), 1e-12) << "probe " << q;
   // the perturbation changed the answer (the comparison is not trivial)
   EXPECT_GT((ws.lambda - solver.lambda()).cwiseAbs().maxCoeff(), 1e-3 * scale);
+  // the needle's load (SnapshotWorkspace::needle_force) is the full solve's force on the points
+  // that move with the needle: each row's multiplier times its needle terms' directions
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  for (int i = 0; i < moved.set.num_rows(); ++i) {
+    const ConstraintRow& row = moved.set.rows()[i];
+    for (int t = row.first_term; t < row.first_term + row.num_terms; ++t)
+      if (moved.moves_with_needle[moved.set.term(t).point])
+        force += full_solver.lambda()[i] * moved.set.term(t).direction;
+  }
+  ASSERT_GT(force.norm(), 1e-3) << "no load on the needle: the comparison is trivial";
+  EXPECT_LT((ws.needle_force - force).norm(), 1e-10 * force.norm());
 }
 
 // soft rows (ConstraintRow::softness and ::compliance) keep their softness in the perturbed
@@ -222,38 +234,6 @@ TEST(ConstraintSnapshotTest, HeldFrictionReproducesTheStepAndDropsTheFrictionRow
   const ConstraintSolveReport moved = snapshot.Solve(PerturbedPose(), ws, &probes);
   EXPECT_TRUE(moved.converged);
   EXPECT_EQ(moved.method, ConstraintMethod::kActiveSet);
-}
-
-// the needle's load (SnapshotWorkspace::needle_force) at a perturbed pose is the force of the
-// full solve's rows on the points that move with the needle: each row's multiplier times its
-// needle term's direction, summed
-TEST(ConstraintSnapshotTest, NeedleLoadIsTheFullSolvesForceOnTheNeedlePoints) {
-  Step step;
-  ConstraintSolver solver;
-  ConstraintSnapshot snapshot;
-  SolveAndCapture(step, solver, snapshot);
-  const Eigen::Isometry3d X_new = PerturbedPose();
-  SnapshotWorkspace ws;
-  std::vector<Eigen::Vector3d> probes;
-  ASSERT_TRUE(snapshot.Solve(X_new, ws, &probes).converged);
-
-  Step moved;
-  moved.Build(X_new, CapturedPose());
-  ConstraintSolver full_solver;
-  ConstraintSolveReport full;
-  SolveFully(moved, full_solver, &full);
-  ASSERT_TRUE(full.converged);
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();
-  for (int i = 0; i < moved.set.num_rows(); ++i) {
-    const ConstraintRow& row = moved.set.rows()[i];
-    for (int t = row.first_term; t < row.first_term + row.num_terms; ++t) {
-      const ConstraintTerm& term = moved.set.term(t);
-      if (!moved.moves_with_needle[term.point]) continue;
-      force += full_solver.lambda()[i] * term.direction;
-    }
-  }
-  ASSERT_GT(force.norm(), 1e-3) << "no load on the needle: the comparison is trivial";
-  EXPECT_LT((ws.needle_force - force).norm(), 1e-10 * force.norm());
 }
 
 // CalcNeedleTranslationStiffness is minus the derivative of the needle's force with respect to
