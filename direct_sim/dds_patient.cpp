@@ -11,6 +11,7 @@
 #include "common/core/thread_priority.h"
 #include "common/scene/lockstep_targets.h"
 #include "direct_sim/controller_watch.h"
+#include "direct_sim/ros2_wait.h"
 
 namespace nsim {
 namespace {
@@ -57,6 +58,7 @@ class PatientPump {
       transport::Ros2MirrorTopics topics;
       topics.frames = topics.distance = true;
       mirror_ = std::make_unique<transport::Ros2Mirror>(*ros2, topics);
+      ros2_wait_ = ros2->wait_subscribers;
     }
     status_.sender = "direct_sim";
     status_.scenario_hash = scenario_hash;
@@ -72,6 +74,13 @@ class PatientPump {
         status_out_.WaitForAcks(1.0);
         return code;
       }
+    }
+    if (mirror_ && !WaitForRos2Subscribers(*mirror_, ros2_wait_, Ros2FrameTopics(),
+                                           run_.start_timeout, kPeerSettle_s, "direct_sim run")) {
+      info_.exit = "no_ros2_subscriber";
+      PublishStatus(RunState::kFailed, info_.exit);
+      status_out_.WaitForAcks(1.0);
+      return 1;
     }
     PublishStatus(RunState::kRunning, "running");
     // the loop's thread in the realtime class for the steps (run.rt_priority); the DDS threads
@@ -115,6 +124,14 @@ class PatientPump {
   }
 
  private:
+  // the ROS 2 topics of every frame (the entry point comes later, after the puncture)
+  std::vector<const char*> Ros2FrameTopics() const {
+    namespace topic = transport::ros2_topic;
+    std::vector<const char*> topics = {topic::kMarkers, topic::kRobotPose, topic::kTipToTarget};
+    if (!loop_.frame().q.empty()) topics.push_back(topic::kJointStates);
+    return topics;
+  }
+
   int64_t StepCount() const {
     return static_cast<int64_t>(std::llround(run_.duration / loop_.config().scene.time_step));
   }
@@ -271,6 +288,7 @@ class PatientPump {
   std::unique_ptr<transport::Reader<RobotTarget>> targets_;
   std::unique_ptr<transport::Reader<SimStatus>> status_in_;  // the controller's status
   std::unique_ptr<transport::Ros2Mirror> mirror_;  // --ros2; after the participant: deleted first
+  int ros2_wait_ = 0;                              // --ros2-wait
   LockstepTargets delay_;
   SimStatus status_;
   uint64_t frames_sent_ = 0;

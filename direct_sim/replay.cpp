@@ -13,6 +13,7 @@
 #include "common/core/interrupt.h"
 #include "common/markers/marker_csv.h"
 #include "messages/ros2.h"
+#include "direct_sim/ros2_wait.h"
 #include "messages/transport.h"
 #include "messages/transport_options.h"
 
@@ -46,7 +47,6 @@ struct ReplayOptions {
   double rate_scale = 1;
   long wait_readers = 1;
   double wait_timeout = 30;
-  long ros2_wait = 0;  // ROS 2 subscribers of /nsim/markers to wait for
   bool quiet = false;
 };
 
@@ -66,6 +66,7 @@ class Replayer {
       transport::Ros2MirrorTopics topics;
       topics.frames = true;
       mirror_ = std::make_unique<transport::Ros2Mirror>(*ros2, topics);
+      wait_ros2_ = ros2->wait_subscribers;
     }
     status_.sender = "direct_sim";
     status_.message = "replay";
@@ -75,7 +76,10 @@ class Replayer {
   // the exit code
   int Run() {
     if (options_.wait_readers > 0 && !WaitForReaders()) return 1;
-    if (options_.ros2_wait > 0 && !WaitForRos2Subscribers()) return 1;
+    if (mirror_ && !WaitForRos2Subscribers(*mirror_, wait_ros2_, {transport::ros2_topic::kMarkers},
+                                           options_.wait_timeout, kSettleTimeout_s,
+                                           "direct_sim replay"))
+      return 1;
     Stream();
     return Finish();
   }
@@ -114,20 +118,6 @@ class Replayer {
     return true;
   }
 
-  // false (after a message) when the ROS 2 subscribers did not come in time
-  bool WaitForRos2Subscribers() {
-    if (!mirror_->WaitForMarkerSubscribers(static_cast<int>(options_.ros2_wait),
-                                           options_.wait_timeout)) {
-      std::cerr << "direct_sim replay: no ROS 2 subscriber of " << transport::ros2_topic::kMarkers
-                << " after " << options_.wait_timeout
-                << " s (is it on the same domain, --domain or ROS_DOMAIN_ID?)\n";
-      return false;
-    }
-    // as above: the subscriber must know this writer too; a ROS 2 node does not say when it
-    // does, so it gets the settle time (a volatile subscriber would drop the first frames)
-    SleepUntilMonotonic(MonotonicSeconds() + kSettleTimeout_s);
-    return true;
-  }
 
   // every frame at its due time (until interrupted), with a status and a progress line a second
   void Stream() {
@@ -188,6 +178,7 @@ class Replayer {
   transport::Writer<SimStatus> status_writer_;
   transport::Reader<SimStatus> status_reader_;
   std::unique_ptr<transport::Ros2Mirror> mirror_;  // --ros2; after the participant: deleted first
+  int wait_ros2_ = 0;                              // --ros2-wait
   SimStatus status_;
   double start_ = 0, max_lateness_ = 0;
 };
@@ -202,11 +193,10 @@ int RunReplay(int argc, char** argv) {
       .Option("rate-scale", "X", "play X times faster than recorded", "1")
       .Option("wait-readers", "N", "wait for N SensorFrame readers before streaming", "1")
       .Option("wait-timeout", "S", "give up waiting for readers after S seconds", "30")
-      .Option("ros2-wait", "N",
-              "with --ros2: wait for N ROS 2 subscribers of /nsim/markers before streaming", "0")
       .Flag("quiet", "no progress lines");
   transport::AddTransportOptions(cli, "direct_sim");
   transport::AddRos2Options(cli);
+  transport::AddRos2WaitOption(cli, transport::ros2_topic::kMarkers);
   if (!cli.ParseOrPrintHelp(argc, argv, 1)) return 0;
   ReplayOptions options;
   options.markers = cli.GetString("markers");
@@ -224,11 +214,6 @@ int RunReplay(int argc, char** argv) {
   if (!(options.wait_timeout >= 0 && options.wait_timeout <= 3600))
     throw InputError(Str("--wait-timeout must be in [0, 3600] (s), got ", options.wait_timeout));
   options.quiet = cli.GetFlag("quiet");
-  options.ros2_wait = cli.GetInt("ros2-wait");
-  if (options.ros2_wait < 0)
-    throw InputError(Str("--ros2-wait must be >= 0, got ", options.ros2_wait));
-  if (options.ros2_wait > 0 && !cli.GetFlag("ros2"))
-    throw InputError("--ros2-wait needs --ros2");
 
   const MarkerStream stream = ReadMarkerCsv(options.markers);
   CheckMarkerSampling(stream, options.markers, kMaxGapRatio, kMaxGap_s);
@@ -236,7 +221,8 @@ int RunReplay(int argc, char** argv) {
     throw InputError(
         Str("a SensorFrame carries at most 64 markers, the stream has ", stream.num_markers));
   const transport::TransportConfig tc = transport::TransportFromCli(cli);
-  const std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
+  std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
+  transport::ApplyRos2Wait(cli, &ros2);
   InstallInterruptHandler();
   return Replayer(stream, options, tc, ros2).Run();
 }

@@ -63,6 +63,9 @@ void DeclareOptions(CommandLine& cli) {
   AddControllerOptions(cli);
   transport::AddTransportOptions(cli, "direct_sim");
   transport::AddRos2Options(cli);
+  transport::AddRos2WaitOption(cli,
+                               "/nsim/markers, /nsim/robot/pose, /nsim/tip_to_target (and "
+                               "/nsim/robot/joint_states for the iiwa)");
 }
 
 // the command line's overrides of the scenario (InputError naming the option)
@@ -162,7 +165,8 @@ int RunDirect(int argc, char** argv) {
   if (!cli.Given("domain")) tc.domain_id = scenario.dds_domain;
   if (!cli.Given("partition")) tc.partition = scenario.dds_partition;
   tc.Validate();
-  const std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
+  std::optional<transport::Ros2Config> ros2 = transport::Ros2FromCli(cli, tc);
+  transport::ApplyRos2Wait(cli, &ros2);
   if (ros2 && in_process) throw InputError("--ros2 needs the DDS path: not with --in-process");
   if (tc.security.enabled() && in_process)
     throw InputError("--secure needs the DDS path: not with --in-process");

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
+#include <string_view>
+#include <utility>
 
 #include "common/core/clock.h"
 #include "common/core/error.h"
@@ -104,6 +106,8 @@ void Ros2Config::Validate() const {
   if (!config_file.empty() && !std::filesystem::is_regular_file(config_file))
     throw InputError(Str("dds.config_file: no such file '", config_file, "'"));
   if (frame_id.empty()) throw InputError("ROS 2 frame_id must not be empty");
+  if (wait_subscribers < 0 || wait_subscribers > 1000)
+    throw InputError(Str("--ros2-wait must be in 0..1000, got ", wait_subscribers));
 }
 
 Ros2Config Ros2ConfigFor(const TransportConfig& transport, bool domain_given) {
@@ -140,6 +144,18 @@ struct Ros2Mirror::Impl {
                                          t.targets && t.joint_command)),
         distance(participant.Writer(std_msgs_msg_dds__Float64__desc, ros2_topic::kTipToTarget,
                                     t.distance)) {}
+
+  // the writer of ROS 2 topic `topic`, 0 when there is none
+  dds_entity_t WriterOf(std::string_view topic) const {
+    const std::pair<const char*, dds_entity_t> writers[] = {
+        {ros2_topic::kMarkers, markers},         {ros2_topic::kRobotPose, robot_pose},
+        {ros2_topic::kJointStates, joint_states}, {ros2_topic::kEntryPoint, entry_point},
+        {ros2_topic::kTargetPose, target_pose},   {ros2_topic::kJointCommand, joint_command},
+        {ros2_topic::kTipToTarget, distance}};
+    for (const auto& [name, writer] : writers)
+      if (topic == name) return writer;
+    return 0;
+  }
 
   Ros2Participant participant;
   dds_entity_t markers, robot_pose, joint_states, entry_point, target_pose, joint_command,
@@ -193,20 +209,23 @@ void Ros2Mirror::PublishDistance(double distance_m) {
   Write(impl_->distance, &msg);
 }
 
-int Ros2Mirror::marker_subscribers() const {
-  if (impl_->markers <= 0) return 0;
+int Ros2Mirror::subscribers(const char* topic) const {
+  const dds_entity_t w = impl_->WriterOf(topic);
+  if (w <= 0) return 0;
   dds_publication_matched_status_t st;
-  Checked(dds_get_publication_matched_status(impl_->markers, &st), "get matched status");
+  Checked(dds_get_publication_matched_status(w, &st), "get matched status");
   return static_cast<int>(st.current_count);
 }
 
-bool Ros2Mirror::WaitForMarkerSubscribers(int count, double timeout_s) const {
+std::string Ros2Mirror::WaitForSubscribers(int count, const std::vector<const char*>& topics,
+                                           double timeout_s) const {
   const double deadline = MonotonicSeconds() + timeout_s;
-  while (marker_subscribers() < count) {
-    if (MonotonicSeconds() > deadline) return false;
-    dds_sleepfor(DDS_MSECS(5));
-  }
-  return true;
+  for (const char* topic : topics)
+    while (subscribers(topic) < count) {
+      if (MonotonicSeconds() > deadline) return topic;
+      dds_sleepfor(DDS_MSECS(5));
+    }
+  return "";
 }
 
 bool Ros2Mirror::WaitForAcks(double timeout_s) const {

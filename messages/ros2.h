@@ -39,6 +39,9 @@ struct Ros2Config {
   int domain_id = 0;            ///< the ROS 2 domain (ROS_DOMAIN_ID), 0..232
   std::string config_file;      ///< Cyclone XML file; empty: Cyclone's default (CYCLONEDDS_URI)
   std::string frame_id = "world";  ///< header.frame_id of every message (the world frame W)
+  /// A publishing process waits for this many ROS 2 subscribers of each of its streams'
+  /// topics before its first message (--ros2-wait), 0..1000; 0: it does not wait.
+  int wait_subscribers = 0;
 
   /// Throws InputError naming the field when a value is out of range or the file is missing.
   void Validate() const;
@@ -78,10 +81,13 @@ class Ros2Mirror {
   /// The true tip-to-target distance (m) as a Float64 (which has no header, so no time).
   void PublishDistance(double distance_m);
 
-  /// Subscribers matched on /nsim/markers now.
-  int marker_subscribers() const;
-  /// Waits until at least `count` subscribers of /nsim/markers are matched; false on timeout.
-  bool WaitForMarkerSubscribers(int count, double timeout_s) const;
+  /// Subscribers matched now on ROS 2 topic `topic` (ros2_topic::k...); 0 for a topic this
+  /// mirror does not write.
+  int subscribers(const char* topic) const;
+  /// Waits until each of `topics` has at least `count` matched subscribers. Returns the first
+  /// topic still short of them when `timeout_s` passed, or an empty string.
+  std::string WaitForSubscribers(int count, const std::vector<const char*>& topics,
+                                 double timeout_s) const;
   /// Waits until every reliable subscriber has acknowledged everything; false on timeout.
   bool WaitForAcks(double timeout_s) const;
 

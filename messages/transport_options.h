@@ -23,6 +23,14 @@ TransportConfig TransportFromCli(const CommandLine& cli);
 /// Adds --ros2 (mirror the process's streams to ROS 2 topics, messages/ros2.h).
 void AddRos2Options(CommandLine& cli);
 
+/// Adds --ros2-wait N: with --ros2, wait for N ROS 2 subscribers of each of `topics` (for the
+/// help text) before the first message.
+void AddRos2WaitOption(CommandLine& cli, const std::string& topics);
+
+/// Sets `ros2`'s wait_subscribers from --ros2-wait (declared by AddRos2WaitOption);
+/// InputError for --ros2-wait > 0 without --ros2, or out of range.
+void ApplyRos2Wait(const CommandLine& cli, std::optional<Ros2Config>* ros2);
+
 /// The ROS 2 configuration when --ros2 was given (or `force`, for --ros2-io), else nothing: the
 /// domain of --domain if given, else ROS_DOMAIN_ID, else 0; the DDS configuration file of
 /// `transport`. InputError with --secure: the ROS 2 topics are not secured.

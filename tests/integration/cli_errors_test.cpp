@@ -29,6 +29,8 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
   const std::string gap_csv = (dir / "gap.csv").string();
   std::ofstream(gap_csv)
       << "t,m0_x,m0_y,m0_z\n0,1,2,3\n0.2,1,2,3\n1000000.2,1,2,3\n1000000.4,1,2,3\n";
+  const std::string good_csv = (dir / "good.csv").string();
+  std::ofstream(good_csv) << "t,m0_x,m0_y,m0_z\n0,1,2,3\n0.1,1,2,3\n0.2,1,2,3\n";
   const std::string long_partition(65535, 'p');
   const std::vector<Case> cases = {
       {{kBin + "/direct_sim"}, 2, "usage: direct_sim"},
@@ -46,6 +48,14 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
       {{kBin + "/direct_sim", "replay", "--markers", bad_csv, "--speed", "2"},
        2,
        "unknown option --speed"},
+      {{kBin + "/direct_sim", "replay", "--markers", good_csv, "--ros2-wait", "1"},
+       2,
+       "--ros2-wait needs --ros2"},
+      {{kBin + "/direct_sim", "run", "--config",
+        NSIM_SOURCE_DIR "/configs/scenarios/liver_test_coarse.yaml", "--ros2", "--ros2-wait",
+        "1001", "--check"},
+       2,
+       "--ros2-wait must be in 0..1000, got 1001"},
       {{kBin + "/inverse_sim", "record"}, 2, "missing required option --out"},
       {{kBin + "/inverse_sim", "record", "--out", "/nonexistent/dir/out.csv"},
        2,

@@ -134,14 +134,16 @@ TEST(Ros2Interop, FastDdsTrackerAndRobotDriveTheController) {
   const auto scenario = IiwaScenario(dir);
   const int domain = 64;
 
-  // 1. direct_sim run --ros2 without a controller, recorded by Fast DDS
+  // 1. direct_sim run --ros2 without a controller, recorded by Fast DDS from its first frame
+  // (--ros2-wait: each topic of a frame is discovered on its own, at its own time)
   ChildProcess recorder(Cat(PeerArgs("record", domain),
                             {"--out", (dir / "record.txt").string(), "--idle", "3", "--timeout",
                              "120"}),
                         (dir / "recorder.log").string());
   ChildProcess direct(Cat({kBin + "/direct_sim", "run", "--config", scenario.string(),
                            "--no-controller", "--mode", "realtime", "--duration", "2",
-                           "--no-video", "--quiet", "--ros2", "--out", (dir / "direct").string()},
+                           "--no-video", "--quiet", "--ros2", "--ros2-wait", "1", "--out",
+                           (dir / "direct").string()},
                           NsimArgs(domain)),
                       (dir / "direct.log").string());
   ASSERT_EQ(direct.Wait(150), 0) << direct.Output();
@@ -149,7 +151,7 @@ TEST(Ros2Interop, FastDdsTrackerAndRobotDriveTheController) {
   const std::vector<Line> record = ReadRecord(dir / "record.txt");
   const std::vector<Line> markers = OfKind(record, 'M'), poses = OfKind(record, 'P'),
                           joints = OfKind(record, 'J'), distances = OfKind(record, 'D');
-  ASSERT_GE(markers.size(), 30u) << "of 101 frames";  // the first ones precede discovery
+  ASSERT_EQ(markers.size(), 101u);  // 100 steps and the final state
   EXPECT_EQ(poses.size(), markers.size());
   EXPECT_EQ(joints.size(), markers.size());
   EXPECT_EQ(distances.size(), markers.size());

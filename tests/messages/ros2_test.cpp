@@ -95,7 +95,7 @@ TEST(Ros2, DomainComesFromTheCommandLineOrRosDomainId) {
 TEST(Ros2, MirroredFramesAreAssembledBack) {
   Ros2Mirror mirror(LoopbackConfig(), {true, false, false, false});
   Ros2Input input(LoopbackConfig(), Eigen::Vector3d(0, 0, 2));
-  ASSERT_TRUE(mirror.WaitForMarkerSubscribers(1, 10.0));
+  ASSERT_TRUE(mirror.WaitForSubscribers(1, {ros2_topic::kMarkers}, 10.0).empty());
   // markers alone do not make a frame
   SensorFrame markers_only;
   markers_only.stamp.sim_time = 0.01;
@@ -148,7 +148,9 @@ TEST(Ros2, MirroredFramesAreAssembledBack) {
 TEST(Ros2, AJointControllerWaitsForSevenJoints) {
   Ros2Mirror mirror(LoopbackConfig(), {true, false, false, false});
   Ros2Input input(LoopbackConfig(), Eigen::Vector3d::UnitZ(), 7);
-  ASSERT_TRUE(mirror.WaitForMarkerSubscribers(1, 10.0));
+  ASSERT_EQ(mirror.WaitForSubscribers(
+                1, {ros2_topic::kMarkers, ros2_topic::kRobotPose, ros2_topic::kJointStates}, 10.0),
+            "");
   SensorFrame no_joints = RobotFrame(0.02);
   no_joints.q.clear();
   mirror.PublishFrame(no_joints);
@@ -190,7 +192,7 @@ TEST(Ros2, AnotherFrameIdIsDropped) {
   other.frame_id = "camera";
   Ros2Mirror mirror(other, {true, false, false, false});
   Ros2Input input(LoopbackConfig(), Eigen::Vector3d::UnitZ());
-  ASSERT_TRUE(mirror.WaitForMarkerSubscribers(1, 10.0));
+  ASSERT_TRUE(mirror.WaitForSubscribers(1, {ros2_topic::kMarkers}, 10.0).empty());
   mirror.PublishFrame(RobotFrame(0.5));
   const double end = MonotonicSeconds() + 10.0;
   std::vector<SensorFrame> got;
@@ -213,7 +215,10 @@ TEST(Ros2, TargetsArePosesAndJointCommands) {
   target.q = {0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6};
   target.X_WE = Eigen::Translation3d(0, 0, 1) * Eigen::Isometry3d::Identity();
   EXPECT_NO_THROW(mirror.PublishTarget(target));
-  EXPECT_EQ(mirror.marker_subscribers(), 0);  // no markers writer on a target mirror
+  // no markers writer on a target mirror: none to wait for, the wait names the topic
+  EXPECT_EQ(mirror.subscribers(ros2_topic::kMarkers), 0);
+  EXPECT_EQ(mirror.WaitForSubscribers(1, {ros2_topic::kMarkers}, 0.05), ros2_topic::kMarkers);
+  EXPECT_EQ(mirror.WaitForSubscribers(0, {ros2_topic::kMarkers}, 0.0), "");
   geometry_msgs_msg_dds__PoseStamped_ pose{};
   ToRos2Pose(target.stamp.sim_time, target.X_WE, "world", pose);
   EXPECT_EQ(pose.pose.orientation.w, 1.0);
