@@ -106,7 +106,9 @@ FemInverse SelectConstraintCompliance(bool rest);
 /// What the last free-motion solve did.
 struct FemStepStats {
   int cg_iterations = 0;          ///< PCG iterations (0 on the direct path)
-  double relative_residual = 0;   ///< ||b - A dv|| / ||b|| of the free-motion solve (true residual)
+  /// ||b - A dv|| / ||b|| of the free-motion solve: PCG's recursive residual (the true one up to
+  /// round-off; the true one when PCG ran out of iterations, and on the direct path)
+  double relative_residual = 0;
   bool refactorized = false;      ///< a numeric factorization ran on this thread in this step
   bool factor_swapped = false;    ///< a background factorization was adopted at this step
   bool refresh_requested = false;  ///< this step's A was handed to the background worker

@@ -290,7 +290,9 @@ TEST(NeedleTissueTest, LateralComplianceIsASpringBetweenPointAndNeedle) {
       }
     }
     (c > 0 ? soft_force : rigid_force) = scene.report().lateral_force;
-    if (c > 0) EXPECT_GE(checked, 10);
+    if (c > 0) {
+      EXPECT_GE(checked, 10);
+    }
   }
   std::printf("lateral force after the drift: rigid %.4g N, compliant %.4g N\n", rigid_force, soft_force);
   EXPECT_GT(rigid_force, 0.0);

@@ -292,7 +292,9 @@ TEST(SteeringControllerTest, LiverAlignmentKeepsTheBaseDirectionAnObjectiveForAF
     const std::string name = Str(c.model == &rigid ? "rigid" : "flexible", " needle, setting ",
                                  static_cast<int>(c.setting));
     ASSERT_EQ(e.size(), c.rows) << name;
-    if (c.rows == 6) EXPECT_NEAR(e[3], 0.05, 1e-9) << name;
+    if (c.rows == 6) {
+      EXPECT_NEAR(e[3], 0.05, 1e-9) << name;
+    }
     // the other phases keep the thesis's layout
     EXPECT_EQ(controller.EvaluateObjectives(turned, InsertionPhase::kInSkin).size(), 6) << name;
   }
