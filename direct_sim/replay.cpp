@@ -12,8 +12,8 @@
 #include "common/core/error.h"
 #include "common/core/interrupt.h"
 #include "common/markers/marker_csv.h"
-#include "messages/ros2.h"
 #include "direct_sim/ros2_wait.h"
+#include "messages/ros2.h"
 #include "messages/transport.h"
 #include "messages/transport_options.h"
 
@@ -117,7 +117,6 @@ class Replayer {
                   kSettleTimeout_s);
     return true;
   }
-
 
   // every frame at its due time (until interrupted), with a status and a progress line a second
   void Stream() {
