@@ -87,6 +87,8 @@ double ControllerLoop::CalcHorizon(double t) {
   const double loop = configured - config_.horizon.localization_delay;
   const double measured = Median({recent_delays_.begin(), recent_delays_.end()});
   const double horizon = configured + std::max(0.0, measured - loop);
+  // the delay spans the loop period and d frames of latency ((d + 1) periods in lockstep)
+  if (loop > 0) latency_steps_ = std::max(0, static_cast<int>(std::lround(measured / loop)) - 1);
   if (config_.search_lead_auto && predictor_ && loop > 0) {
     const int lead = std::max(1, static_cast<int>(std::lround(horizon / loop)));
     if (lead != search_lead_) predictor_->SetSearchLead(lead);
@@ -145,6 +147,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   try {
     r.horizon = CalcHorizon(t);
     SetCommanded(&input);
+    input.latency_steps = latency_steps_;
     input.X_WE = frame.X_WE;
     input.bevel_angle = frame.bevel_angle;
     if (frame.q.size() == 7) input.q = Eigen::Map<const Vector7d>(frame.q.data());
@@ -190,6 +193,8 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   r.e_p_norm = out.e.size() >= 3 ? out.e.head<3>().norm() : 0.0;
   r.model_tip = out.p_WTip;
   r.model_target = out.p_WFinal;
+  r.latency_steps = input.latency_steps;
+  r.load_gain = out.load_gain;
   r.timings = out.timings;
   if (!out.valid) {
     ++counts_.invalid_outputs;

@@ -88,6 +88,8 @@ struct ControllerRecord {
   /// the target as the model places it (its final path target, m): its distance to the true
   /// target is the registration's share of the final error
   Eigen::Vector3d model_target = Eigen::Vector3d::Zero();
+  int latency_steps = 0;   ///< the measured latency the step used (frames; 0 = not yet)
+  double load_gain = 0.0;  ///< the gain of e_l's rows (0 without them)
   SteeringTimings timings;
 };
 
@@ -178,6 +180,7 @@ class ControllerLoop {
   std::optional<RobotTarget> last_target_;  // the last command sent
   bool obeyed_ = false;                     // the robot executed one of our commands
   int search_lead_ = 0;
+  int latency_steps_ = 0;  // the measured latency in frames (CalcHorizon), 0 = not yet
 };
 
 }  // namespace nsim

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "common/control/control_law.h"
+#include "common/control/delay_margin.h"
 #include "common/control/finite_difference_jacobian.h"
 #include "common/control/needle_tilt.h"
 #include "common/core/error.h"
@@ -194,6 +195,12 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
 
   Eigen::VectorXd k;
   AssembleGainVector(out.phase, control_.gains, &k, align_in_liver_, liver_load_);
+  if (const int load_row = GetObjectiveLayout(out.phase, align_in_liver_, liver_load_).load_row;
+      load_row >= 0) {
+    out.load_gain = LimitGainForDelay(control_.gains.load, std::max(0, input.latency_steps),
+                                      kLoadGainMargin);
+    k.segment<2>(load_row).setConstant(out.load_gain);
+  }
   // the commands in flight: the error they will leave, and the base the new step adds to
   const bool in_flight = control_.compensate_in_flight &&
                          (control_.dof == SteeringDof::kCartesian6 ? input.X_WE_commanded.has_value()

@@ -48,7 +48,19 @@ struct SteeringInput {
   /// for kCartesian6, q_commanded for kJoint7.
   std::optional<Eigen::Isometry3d> X_WE_commanded;
   std::optional<Vector7d> q_commanded;
+  /// The loop's measured latency d in frames (a frame's answer is executed in the step of
+  /// frame + d; ControllerLoop measures it from applied_seq), 0 when not known yet. It caps the
+  /// gain of the liver's load rows (kLoadGainMargin).
+  int latency_steps = 0;
 };
+
+/// The gain margin of e_l's rows: their gain is at most the stable limit of a loop that acts
+/// on d-frame-old errors without compensating the commands in flight
+/// (common/control/delay_margin.h) over this factor (6 dB). The in-flight compensation assumes
+/// the model predicts what a needle motion does to e_l, which it does worst of all objectives
+/// (the patient's liver follows the needle through the markers the frozen step holds still;
+/// the patient's friction); at 1 and 3 frames the cap (0.5, 0.22) is above the default gain.
+inline constexpr double kLoadGainMargin = 2.0;
 
 /// Wall-clock cost of one control step (s).
 struct SteeringTimings {
@@ -73,6 +85,9 @@ struct SteeringOutput {
   Eigen::Isometry3d X_WE_target = Eigen::Isometry3d::Identity();  ///< eq. 3.9 (kCartesian6)
   Vector7d q_target = Vector7d::Zero();                           ///< eq. A.3 (kJoint7)
   bool step_limited = false;
+  /// the gain of e_l's rows this step (control.gains.load capped for input.latency_steps;
+  /// 0 without them)
+  double load_gain = 0.0;
   /// the target was turned back onto control.max_needle_tilt (common/control/needle_tilt.h)
   bool tilt_limited = false;
   Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();     ///< model tip (m)

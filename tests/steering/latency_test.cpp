@@ -29,6 +29,7 @@ struct Outcome {
   double arrival = -1.0;        // first time the tip is within 2 mm of the target (s), else -1
   double amplitude = 0.0;       // its peak-to-peak there (m)
   double measured_delay = 0.0;  // the controller's median measured loop delay (s)
+  int latency_steps = -1;       // the latency its last step used (frames)
 };
 
 Outcome RunStill(int latency_steps, bool compensate, double seconds,
@@ -59,6 +60,7 @@ Outcome RunStill(int latency_steps, bool compensate, double seconds,
   out.amplitude = *std::max_element(distances.begin(), distances.end()) -
                   *std::min_element(distances.begin(), distances.end());
   out.measured_delay = Median(controller.measured_delays());
+  out.latency_steps = controller.last_record().latency_steps;
   return out;
 }
 
@@ -79,6 +81,7 @@ TEST(LatencyTest, OneGainConvergesAtOneThreeFiveAndTenSteps) {
     EXPECT_NEAR(o.final_distance, at_one_step, 0.3e-3) << d << " steps";
     EXPECT_LT(o.amplitude, 0.1e-3) << d << " steps: the loop still oscillates";
     EXPECT_NEAR(o.measured_delay, (d + 1) * 0.02, 1e-9) << d << " steps";
+    EXPECT_EQ(o.latency_steps, d);
   }
 }
 
