@@ -49,10 +49,10 @@ void AddRos2Options(CommandLine& cli) {
 }
 
 void AddRos2WaitOption(CommandLine& cli, const std::string& topics) {
-  cli.Option("ros2-wait", "N",
-             "with --ros2: wait for N ROS 2 subscribers of each of " + topics +
-                 " before the first message (then 1-2 s for them to know this process)",
-             "0");
+  cli.Integer("ros2-wait", "N",
+              "with --ros2: wait for N ROS 2 subscribers of each of " + topics +
+                  " before the first message (then 1-2 s for them to know this process)",
+              "0", 0, 1000);
 }
 
 void ApplyRos2Wait(const CommandLine& cli, std::optional<Ros2Config>* ros2) {
@@ -61,8 +61,7 @@ void ApplyRos2Wait(const CommandLine& cli, std::optional<Ros2Config>* ros2) {
     if (n != 0) throw InputError("--ros2-wait needs --ros2");
     return;
   }
-  if (n < 0 || n > 1000) throw InputError(Str("--ros2-wait must be in 0..1000, got ", n));
-  (*ros2)->wait_subscribers = static_cast<int>(n);
+  (*ros2)->wait_subscribers = static_cast<int>(n);  // in 0..1000: checked when parsing
 }
 
 std::optional<Ros2Config> Ros2FromCli(const CommandLine& cli, const TransportConfig& transport,

@@ -28,7 +28,7 @@ void AddRos2Options(CommandLine& cli);
 void AddRos2WaitOption(CommandLine& cli, const std::string& topics);
 
 /// Sets `ros2`'s wait_subscribers from --ros2-wait (declared by AddRos2WaitOption);
-/// InputError for --ros2-wait > 0 without --ros2, or out of range.
+/// InputError for --ros2-wait > 0 without --ros2 (its range is checked when parsing).
 void ApplyRos2Wait(const CommandLine& cli, std::optional<Ros2Config>* ros2);
 
 /// The ROS 2 configuration when --ros2 was given (or `force`, for --ros2-io), else nothing: the

@@ -194,13 +194,11 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   out.p_WFinal = now.p_WPath.back();
 
   Eigen::VectorXd k;
-  AssembleGainVector(out.phase, control_.gains, &k, align_in_liver_, liver_load_);
-  if (const int load_row = GetObjectiveLayout(out.phase, align_in_liver_, liver_load_).load_row;
-      load_row >= 0) {
-    out.load_gain = LimitGainForDelay(control_.gains.load, std::max(0, input.latency_steps),
-                                      kLoadGainMargin);
-    k.segment<2>(load_row).setConstant(out.load_gain);
-  }
+  ObjectiveGains gains = control_.gains;  // e_l's capped for the measured latency
+  gains.load = LimitGainForDelay(gains.load, std::max(0, input.latency_steps), kLoadGainMargin);
+  AssembleGainVector(out.phase, gains, &k, align_in_liver_, liver_load_);
+  if (GetObjectiveLayout(out.phase, align_in_liver_, liver_load_).load_row >= 0)
+    out.load_gain = gains.load;
   // the commands in flight: the error they will leave, and the base the new step adds to
   const bool in_flight = control_.compensate_in_flight &&
                          (control_.dof == SteeringDof::kCartesian6 ? input.X_WE_commanded.has_value()

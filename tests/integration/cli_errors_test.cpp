@@ -55,7 +55,7 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
         NSIM_SOURCE_DIR "/configs/scenarios/liver_test_coarse.yaml", "--ros2", "--ros2-wait",
         "1001", "--check"},
        2,
-       "--ros2-wait must be in 0..1000, got 1001"},
+       "--ros2-wait: expected an integer in [0, 1000], got 1001"},
       {{kBin + "/inverse_sim", "record"}, 2, "missing required option --out"},
       {{kBin + "/inverse_sim", "record", "--out", "/nonexistent/dir/out.csv"},
        2,
