@@ -212,9 +212,11 @@ void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScen
   if (!pred.IsNull()) {
     pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
                     "pca_window", "search_lead", "search_interval", "horizon_window",
-                    "localization_delay", "displacement", "measure_latency", "model_pose"});
+                    "localization_delay", "displacement", "measure_latency", "model_pose",
+                    "preparation"});
     pred.Read("displacement", &s->loop.prediction_displacement);
     pred.Read("measure_latency", &s->loop.measure_latency);
+    pred.Read("preparation", &s->loop.preparation);
     const int pose = pred.ReadChoice("model_pose", {"measured", "commanded"});
     if (pose >= 0) s->loop.model_pose_commanded = pose == 1;
     pred.Read("enabled", &s->loop.prediction_enabled);

@@ -30,7 +30,7 @@ ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(ou
   csv_->WriteLine(
       "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
       "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms,model_target_x,model_target_y,"
-      "model_target_z,latency_steps,load_gain");
+      "model_target_z,latency_steps,load_gain,preparing");
 }
 
 void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
@@ -42,7 +42,7 @@ void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
       << ',' << r.model_tip.y() << ',' << r.model_tip.z() << ',' << 1e3 * r.timings.simulation
       << ',' << 1e3 * r.timings.jacobian << ',' << 1e3 * r.timings.total << ','
       << r.model_target.x() << ',' << r.model_target.y() << ',' << r.model_target.z() << ','
-      << r.latency_steps << ',' << r.load_gain;
+      << r.latency_steps << ',' << r.load_gain << ',' << r.preparing;
   csv_->WriteLine(row.str());
 }
 
@@ -54,6 +54,10 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
   for (const auto& v : score.NrmsPercent()) nrms.push_back(v ? json(*v) : json(nullptr));
   for (double v : score.Rms()) rms.push_back(1e3 * v);
   for (const Eigen::Vector3d& b : score.Bias()) bias.push_back({1e3 * b.x(), 1e3 * b.y(), 1e3 * b.z()});
+  // the LF regression window WF each marker's predictor uses at the end (0: no window)
+  json windows = json::array();
+  if (const MarkerPredictor* p = loop.predictor())
+    for (int m = 0; m < p->num_markers(); ++m) windows.push_back(p->filter(m).window());
   return {{"ending", info.ending},
           {"scenario_hash", info.scenario_hash},
           {"transport", info.transport},
@@ -68,6 +72,8 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
           {"rejected_frames", n.rejected_frames},
           {"invalid_outputs", n.invalid_outputs},
           {"tilt_limited", n.tilt_limited},
+          // the preparation phase (prediction.preparation): frames answered with the hold
+          {"preparation_frames", n.prepared},
           {"last_rejection", n.last_rejection},
           {"timings",
            {{"model_step", Timing(loop.model_time())},
@@ -80,6 +86,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
           {"prediction_rms_mm", rms},
           {"prediction_bias_mm", bias},
           {"predictions_scored", score.scored()},
+          {"prediction_windows", windows},
           // the model built mid-insertion (a restarted controller): how it caught up
           {"catch_up",
            {{"first_answered_seq", loop.first_answered_seq()},
@@ -102,6 +109,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"optimize_window", c.prediction.optimize_window},
             {"search_lead", loop.search_lead()},
             {"search_interval", c.prediction.search_interval},
+            {"preparation", c.preparation},
             {"prediction_displacement", c.prediction_displacement},
             {"localization_delay_s", c.horizon.localization_delay},
             {"young_modulus_factor", c.model.young_modulus_factor},

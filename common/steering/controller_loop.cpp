@@ -136,7 +136,14 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
       return std::nullopt;
     }
     first_answered_seq_ = static_cast<int64_t>(frame.stamp.seq);
+    // the preparation phase: the robot held where it is until the predictor is ready
+    preparing_ = config_.preparation && !catch_up_.done && !predictor_->ready();
+    hold_.X_WE = frame.X_WE;
+    hold_.q = frame.q;
+    hold_.mode = config_.control.dof == SteeringDof::kCartesian6 ? TargetMode::kCartesian
+                                                                 : TargetMode::kJoint;
   }
+  if (preparing_ && predictor_->ready()) preparing_ = false;  // latched off
   const double t = frame.stamp.sim_time;
   ControllerRecord& r = record_;
   r = ControllerRecord();
@@ -195,6 +202,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   r.model_target = out.p_WFinal;
   r.latency_steps = input.latency_steps;
   r.load_gain = out.load_gain;
+  r.preparing = preparing_;
   r.timings = out.timings;
   if (!out.valid) {
     ++counts_.invalid_outputs;
@@ -202,11 +210,10 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   }
   counts_.tilt_limited += out.tilt_limited ? 1 : 0;
   RobotTarget target;
-  target.stamp.seq = counts_.targets++;
-  target.stamp.sim_time = t;
-  target.answers_seq = frame.stamp.seq;
-  target.bevel_angle = frame.bevel_angle;
-  if (config_.control.dof == SteeringDof::kCartesian6) {
+  if (preparing_) {  // the model followed the markers; the robot stays at the hold pose
+    target = hold_;
+    ++counts_.prepared;
+  } else if (config_.control.dof == SteeringDof::kCartesian6) {
     target.mode = TargetMode::kCartesian;
     target.X_WE = out.X_WE_target;
   } else {
@@ -214,6 +221,10 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     target.q.assign(out.q_target.data(), out.q_target.data() + 7);
     target.X_WE = out.X_WE_target;  // the flange pose q implies: informative (ROS 2 target pose)
   }
+  target.stamp.seq = counts_.targets++;
+  target.stamp.sim_time = t;
+  target.answers_seq = frame.stamp.seq;
+  target.bevel_angle = frame.bevel_angle;
   last_target_ = target;
   return target;
 }

@@ -71,6 +71,16 @@ struct ControllerLoopConfig {
   /// in-flight motion is zero. Without prediction (or before the predictor is ready, or when
   /// the robot held its last command) the model uses the measured pose either way.
   bool model_pose_commanded = false;
+  /// prediction.preparation (thesis §4.1, fig. 4.1: "some cycles of the patient respiration
+  /// are observed right before the needle insertion"): the robot is held at the flange pose of
+  /// the first answered frame until the marker predictor's PCA buffer is full (pca_window
+  /// frames), then the insertion starts. The model registers to the markers meanwhile and the
+  /// latency is measured on the hold targets, so the insertion starts with the predictor and
+  /// its window chosen on free breathing. Held with prediction off as well, so that paired
+  /// runs insert at the same time. Only for a loop that starts before the needle is in (not
+  /// after a catch-up). false: the insertion starts at the first frame, the predictor joins
+  /// when its buffer is full.
+  bool preparation = false;
   HorizonConfig horizon;
 };
 
@@ -89,6 +99,9 @@ struct ControllerRecord {
   /// target is the registration's share of the final error
   Eigen::Vector3d model_target = Eigen::Vector3d::Zero();
   int latency_steps = 0;   ///< the measured latency the step used (frames; 0 = not yet)
+  /// the preparation phase held the robot (ControllerLoopConfig::preparation): the target
+  /// sent is the hold pose, not the law's
+  bool preparing = false;
   double load_gain = 0.0;  ///< the gain of e_l's rows (0 without them)
   SteeringTimings timings;
 };
@@ -101,6 +114,7 @@ struct ControllerCounts {
   uint64_t tilt_limited = 0;     ///< targets turned back onto controller.max_needle_tilt
   uint64_t rejected_frames = 0;  ///< frames refused (malformed, out of order, no robot state)
   uint64_t observed = 0;         ///< frames fed to the predictor
+  uint64_t prepared = 0;         ///< frames answered with the hold of the preparation phase
   std::string last_rejection;
 };
 
@@ -136,6 +150,8 @@ class ControllerLoop {
   /// Frames ahead the predictor's window search scores now (the measured horizon in frames
   /// with search_lead_auto, else prediction.search_lead).
   int search_lead() const { return search_lead_ > 0 ? search_lead_ : config_.prediction.search_lead; }
+  /// The marker predictor (null before the first accepted frame).
+  const MarkerPredictor* predictor() const { return predictor_.get(); }
   /// The current insertion phase (0 outside, 1 skin, 2 liver), for status messages.
   int phase() const { return phase_; }
   const ControllerLoopConfig& config() const { return config_; }
@@ -163,6 +179,9 @@ class ControllerLoop {
   std::unique_ptr<SteeringController> controller_;
   CatchUpReport catch_up_;
   int64_t first_answered_seq_ = -1;
+  // the preparation phase: on until the predictor is ready (latched off), and its hold pose
+  bool preparing_ = false;
+  RobotTarget hold_;
   std::unique_ptr<MarkerPredictor> predictor_;
   HorizonEstimator horizon_;
   PredictionScore score_;

@@ -356,6 +356,10 @@ TEST(ClosedLoop, PredictionBeatsNoPredictionForEveryMarker) {
     Eigen::Vector3d bias;
     for (int a = 0; a < 3; ++a) bias[a] = i["prediction_bias_mm"][m][a].get<double>();
     EXPECT_LT(bias.norm(), 0.5 * i["prediction_rms_mm"][m].get<double>()) << "marker " << m;
+    // the regression window the search chose, within its range [order + 1, window_max - 1]
+    ASSERT_EQ(i["prediction_windows"].size(), 5u);
+    EXPECT_GE(i["prediction_windows"][m].get<int>(), 3) << "marker " << m;
+    EXPECT_LE(i["prediction_windows"][m].get<int>(), 59) << "marker " << m;
   }
 }
 

@@ -130,6 +130,50 @@ TEST(ControllerLoopTest, PredictedModelPutsTheNeedleAtTheCommandedPose) {
   EXPECT_GT(largest_gap, 1e-4) << "commanded and measured poses never differed";
 }
 
+// prediction.preparation (thesis fig. 4.1): the robot is held at its first pose, the model
+// following the markers, until the predictor's buffer is full; then the law steers. Without
+// it the first target already moves the needle.
+TEST(ControllerLoopTest, PreparationHoldsTheRobotUntilThePredictorIsReady) {
+  Loops loops;
+  ControllerLoopConfig config = loops.inverse.loop;
+  config.prediction.pca_window = 40;  // ready after 40 frames
+  config.prediction.window_max = 20;
+  config.prediction.optimize_window = false;
+  config.preparation = true;
+  ControllerLoop prepared(config, ReadGmshMesh(loops.inverse.mesh_path));
+  config.preparation = false;
+  ControllerLoop unprepared(config, ReadGmshMesh(loops.inverse.mesh_path));
+  const Eigen::Isometry3d X_WE0 = loops.patient.frame().X_WE;
+  const std::optional<RobotTarget> first = unprepared.Step(loops.patient.frame());
+  ASSERT_TRUE(first.has_value()) << unprepared.counts().last_rejection;
+  EXPECT_GT((first->X_WE.translation() - X_WE0.translation()).norm(), 1e-4);
+  LockstepTargets delay(1);
+  int held = 0;
+  double moved_after = 0.0;
+  for (int k = 0; k < 60; ++k) {
+    const SensorFrame frame = loops.patient.frame();
+    const std::optional<RobotTarget> target = prepared.Step(frame);
+    ASSERT_TRUE(target.has_value()) << k << ": " << prepared.counts().last_rejection;
+    const bool ready = prepared.predictor()->ready();
+    EXPECT_EQ(prepared.last_record().preparing, !ready) << k;
+    if (!ready) {
+      ++held;
+      EXPECT_TRUE(target->X_WE.isApprox(X_WE0, 0.0)) << k;  // the hold pose, to the bit
+      EXPECT_LT((frame.X_WE.translation() - X_WE0.translation()).norm(), 1e-12) << k;
+    } else {
+      moved_after = std::max(moved_after, (target->X_WE.translation() - X_WE0.translation()).norm());
+    }
+    EXPECT_EQ(target->answers_seq, frame.stamp.seq);
+    delay.Add(*target);
+    loops.patient.Step(delay.TakeFor(k));
+    ASSERT_TRUE(loops.patient.healthy()) << loops.patient.fault();
+  }
+  EXPECT_EQ(held, 39);  // the 40th frame fills the buffer: it is answered by the law
+  EXPECT_EQ(prepared.counts().prepared, 39u);
+  EXPECT_GT(moved_after, 1e-3);  // the insertion started
+  EXPECT_EQ(loops.patient.gate().counts().rejected(), 0u);
+}
+
 // the closed loop in-process, lockstep with a latency of 1 step
 TEST(ControllerLoopTest, ClosedLoopInProcessInsertsTowardsTheTarget) {
   Loops loops;
@@ -161,13 +205,18 @@ TEST(ControllerLoopTest, ClosedLoopInProcessInsertsTowardsTheTarget) {
   // from this frame alone: its model punctured the liver and has the trajectory points, the
   // path index and the phase of the one that followed the whole insertion; the liver around
   // the needle is within 1.1 mm of it (measured), the target within 0.1 mm.
-  ControllerLoop restarted(loops.inverse.loop, ReadGmshMesh(loops.inverse.mesh_path));
+  // (with the preparation phase on: a controller that catches up does not hold the needle)
+  ControllerLoopConfig config = loops.inverse.loop;
+  config.preparation = true;
+  ControllerLoop restarted(config, ReadGmshMesh(loops.inverse.mesh_path));
   const SensorFrame frame = ThroughWire(loops.patient.frame());
   ASSERT_TRUE(loops.controller.Step(frame).has_value());
   ASSERT_TRUE(restarted.Step(frame).has_value()) << restarted.counts().last_rejection;
   const CatchUpReport& c = restarted.catch_up();
   EXPECT_TRUE(c.done);
   EXPECT_EQ(restarted.first_answered_seq(), steps);
+  EXPECT_FALSE(restarted.last_record().preparing);
+  EXPECT_EQ(restarted.counts().prepared, 0u);
   EXPECT_EQ(c.liver_phase, TissuePhase::kInside);
   EXPECT_EQ(restarted.phase(), loops.controller.phase());
   const ControllerRecord &a = loops.controller.last_record(), &b = restarted.last_record();
