@@ -32,6 +32,14 @@ struct Loops {
   ControllerLoop controller;
 };
 
+// the scenario's loop with a predictor that is ready after 40 frames (a fixed window of 10)
+ControllerLoopConfig WithQuickPredictor(ControllerLoopConfig config) {
+  config.prediction.pca_window = 40;
+  config.prediction.window_max = 20;
+  config.prediction.optimize_window = false;
+  return config;
+}
+
 TEST(ControllerLoopTest, RefusesFramesItCannotUse) {
   Loops loops;
   SensorFrame frame = loops.patient.frame();
@@ -96,10 +104,7 @@ TEST(ControllerLoopTest, AnswersEachFrameWithATargetForItsSequenceNumber) {
 // frame's pose; with a latency of 3 steps the two differ
 TEST(ControllerLoopTest, PredictedModelPutsTheNeedleAtTheCommandedPose) {
   Loops loops;
-  ControllerLoopConfig config = loops.inverse.loop;
-  config.prediction.pca_window = 40;  // ready after 40 frames
-  config.prediction.window_max = 20;
-  config.prediction.optimize_window = false;
+  ControllerLoopConfig config = WithQuickPredictor(loops.inverse.loop);
   config.model_pose_commanded = true;
   ControllerLoop commanded(config, ReadGmshMesh(loops.inverse.mesh_path));
   config.model_pose_commanded = false;
@@ -135,10 +140,7 @@ TEST(ControllerLoopTest, PredictedModelPutsTheNeedleAtTheCommandedPose) {
 // it the first target already moves the needle.
 TEST(ControllerLoopTest, PreparationHoldsTheRobotUntilThePredictorIsReady) {
   Loops loops;
-  ControllerLoopConfig config = loops.inverse.loop;
-  config.prediction.pca_window = 40;  // ready after 40 frames
-  config.prediction.window_max = 20;
-  config.prediction.optimize_window = false;
+  ControllerLoopConfig config = WithQuickPredictor(loops.inverse.loop);
   config.preparation = true;
   ControllerLoop prepared(config, ReadGmshMesh(loops.inverse.mesh_path));
   config.preparation = false;
