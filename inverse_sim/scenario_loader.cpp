@@ -216,7 +216,8 @@ void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScen
                     "preparation"});
     pred.Read("displacement", &s->loop.prediction_displacement);
     pred.Read("measure_latency", &s->loop.measure_latency);
-    pred.Read("preparation", &s->loop.preparation);
+    const int preparation = pred.ReadChoice("preparation", {"none", "buffer", "exhale"});
+    if (preparation >= 0) s->loop.preparation = static_cast<Preparation>(preparation);
     const int pose = pred.ReadChoice("model_pose", {"measured", "commanded"});
     if (pose >= 0) s->loop.model_pose_commanded = pose == 1;
     pred.Read("enabled", &s->loop.prediction_enabled);

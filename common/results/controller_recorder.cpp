@@ -109,7 +109,9 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"optimize_window", c.prediction.optimize_window},
             {"search_lead", loop.search_lead()},
             {"search_interval", c.prediction.search_interval},
-            {"preparation", c.preparation},
+            {"preparation", c.preparation == Preparation::kNone     ? "none"
+                            : c.preparation == Preparation::kBuffer ? "buffer"
+                                                                    : "exhale"},
             {"prediction_displacement", c.prediction_displacement},
             {"localization_delay_s", c.horizon.localization_delay},
             {"young_modulus_factor", c.model.young_modulus_factor},

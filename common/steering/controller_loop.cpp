@@ -19,6 +19,11 @@ ControllerLoop::ControllerLoop(const ControllerLoopConfig& config, TetMesh mesh)
   config_.path.Validate();
   config_.control.Validate();
   config_.prediction.Validate();
+  if (config_.preparation == Preparation::kExhale) {
+    ExhaleGateConfig gate;
+    gate.capacity = config_.prediction.pca_window;
+    exhale_gate_ = std::make_unique<ExhaleGate>(gate);
+  }
 }
 
 ControllerLoop::~ControllerLoop() = default;
@@ -49,6 +54,15 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
     return false;
   }
   score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
+  if (exhale_gate_) {  // the gated start: the first exhale rest once the predictor is ready
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& p : frame.p_WM) centroid += p;
+    const bool entered = exhale_gate_->Add(frame.stamp.sim_time, centroid / frame.p_WM.size());
+    if (predictor_->ready()) {
+      exhale_entered_ = exhale_entered_ || entered;
+      ++ready_frames_;
+    }
+  }
   frame_times_.emplace_back(frame.stamp.seq, frame.stamp.sim_time);
   if (frame_times_.size() > kFrameTimesKept) frame_times_.pop_front();
   MeasureLatency(frame);
@@ -136,14 +150,17 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
       return std::nullopt;
     }
     first_answered_seq_ = static_cast<int64_t>(frame.stamp.seq);
-    // the preparation phase: the robot held where it is until the predictor is ready
-    preparing_ = config_.preparation && !catch_up_.done && !predictor_->ready();
+    // the preparation phase: the robot held where it is until the insertion may start
+    preparing_ = config_.preparation != Preparation::kNone && !catch_up_.done;
     hold_.X_WE = frame.X_WE;
     hold_.q = frame.q;
     hold_.mode = config_.control.dof == SteeringDof::kCartesian6 ? TargetMode::kCartesian
                                                                  : TargetMode::kJoint;
   }
-  if (preparing_ && predictor_->ready()) preparing_ = false;  // latched off
+  if (preparing_ && predictor_->ready() &&
+      (config_.preparation == Preparation::kBuffer || exhale_entered_ ||
+       ready_frames_ > config_.prediction.pca_window))
+    preparing_ = false;  // latched off
   const double t = frame.stamp.sim_time;
   ControllerRecord& r = record_;
   r = ControllerRecord();

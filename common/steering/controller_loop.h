@@ -29,6 +29,7 @@
 #include "common/core/samples.h"
 #include "common/core/statistics.h"
 #include "common/mesh/tet_mesh.h"
+#include "common/prediction/exhale_gate.h"
 #include "common/prediction/horizon_estimator.h"
 #include "common/prediction/marker_predictor.h"
 #include "common/prediction/prediction_score.h"
@@ -36,6 +37,9 @@
 #include "common/steering/steering_controller.h"
 
 namespace nsim {
+
+/// When the insertion starts (ControllerLoopConfig::preparation).
+enum class Preparation { kNone, kBuffer, kExhale };
 
 /// Everything the controller loop is made of.
 struct ControllerLoopConfig {
@@ -71,16 +75,18 @@ struct ControllerLoopConfig {
   /// in-flight motion is zero. Without prediction (or before the predictor is ready, or when
   /// the robot held its last command) the model uses the measured pose either way.
   bool model_pose_commanded = false;
-  /// prediction.preparation (thesis §4.1, fig. 4.1: "some cycles of the patient respiration
-  /// are observed right before the needle insertion"): the robot is held at the flange pose of
-  /// the first answered frame until the marker predictor's PCA buffer is full (pca_window
-  /// frames), then the insertion starts. The model registers to the markers meanwhile and the
+  /// prediction.preparation: when the insertion starts. kNone: at the first frame (the
+  /// predictor joins when its buffer is full). kBuffer (thesis §4.1, fig. 4.1: "some cycles of
+  /// the patient respiration are observed right before the needle insertion"): the robot is
+  /// held at the flange pose of the first answered frame until the marker predictor's PCA
+  /// buffer is full (pca_window frames); the model registers to the markers meanwhile and the
   /// latency is measured on the hold targets, so the insertion starts with the predictor and
-  /// its window chosen on free breathing. Held with prediction off as well, so that paired
-  /// runs insert at the same time. Only for a loop that starts before the needle is in (not
-  /// after a catch-up). false: the insertion starts at the first frame, the predictor joins
-  /// when its buffer is full.
-  bool preparation = false;
+  /// its window chosen on free breathing. kExhale: then also until the breathing enters its
+  /// exhale rest (ExhaleGate, common/prediction/exhale_gate.h, on the same window; at most
+  /// pca_window frames more): a respiratory-gated start. Held with prediction off as well,
+  /// so that paired runs insert at the same time; only for a loop that starts before the
+  /// needle is in (not after a catch-up).
+  Preparation preparation = Preparation::kNone;
   HorizonConfig horizon;
 };
 
@@ -179,9 +185,13 @@ class ControllerLoop {
   std::unique_ptr<SteeringController> controller_;
   CatchUpReport catch_up_;
   int64_t first_answered_seq_ = -1;
-  // the preparation phase: on until the predictor is ready (latched off), and its hold pose
+  // the preparation phase: on until the predictor is ready and (kExhale) the exhale rest
+  // begins, then latched off; its hold pose, and the frames held since the predictor was ready
   bool preparing_ = false;
   RobotTarget hold_;
+  std::unique_ptr<ExhaleGate> exhale_gate_;
+  bool exhale_entered_ = false;
+  int ready_frames_ = 0;
   std::unique_ptr<MarkerPredictor> predictor_;
   HorizonEstimator horizon_;
   PredictionScore score_;

@@ -141,9 +141,9 @@ TEST(ControllerLoopTest, PredictedModelPutsTheNeedleAtTheCommandedPose) {
 TEST(ControllerLoopTest, PreparationHoldsTheRobotUntilThePredictorIsReady) {
   Loops loops;
   ControllerLoopConfig config = WithQuickPredictor(loops.inverse.loop);
-  config.preparation = true;
+  config.preparation = Preparation::kBuffer;
   ControllerLoop prepared(config, ReadGmshMesh(loops.inverse.mesh_path));
-  config.preparation = false;
+  config.preparation = Preparation::kNone;
   ControllerLoop unprepared(config, ReadGmshMesh(loops.inverse.mesh_path));
   const Eigen::Isometry3d X_WE0 = loops.patient.frame().X_WE;
   const std::optional<RobotTarget> first = unprepared.Step(loops.patient.frame());
@@ -174,6 +174,37 @@ TEST(ControllerLoopTest, PreparationHoldsTheRobotUntilThePredictorIsReady) {
   EXPECT_EQ(prepared.counts().prepared, 39u);
   EXPECT_GT(moved_after, 1e-3);  // the insertion started
   EXPECT_EQ(loops.patient.gate().counts().rejected(), 0u);
+}
+
+// prediction.preparation: exhale: held past the buffer's fill until the breathing enters its
+// exhale rest (ExhaleGate, tested against a closed form in exhale_gate_test) within a breathing
+// period (4 s), before the fallback of one more buffer's length; then the law steers
+TEST(ControllerLoopTest, AnExhaleGatedStartWaitsForTheExhaleRest) {
+  Loops loops;
+  ControllerLoopConfig config = loops.inverse.loop;
+  config.prediction.pca_window = 250;  // 5 s: more than a breathing period
+  config.prediction.window_max = 20;
+  config.prediction.optimize_window = false;
+  config.preparation = Preparation::kExhale;
+  ControllerLoop gated(config, ReadGmshMesh(loops.inverse.mesh_path));
+  const Eigen::Isometry3d X_WE0 = loops.patient.frame().X_WE;
+  LockstepTargets delay(1);
+  int held = 0;
+  for (int k = 0; k < 600 && (k == 0 || gated.last_record().preparing); ++k) {
+    const std::optional<RobotTarget> target = gated.Step(loops.patient.frame());
+    ASSERT_TRUE(target.has_value()) << k << ": " << gated.counts().last_rejection;
+    if (gated.last_record().preparing) {
+      EXPECT_TRUE(target->X_WE.isApprox(X_WE0, 0.0)) << k;
+      ++held;
+    }
+    delay.Add(*target);
+    loops.patient.Step(delay.TakeFor(k));
+  }
+  std::printf("exhale-gated start: held %d frames (%.2f s)\n", held, held * 0.02);
+  EXPECT_FALSE(gated.last_record().preparing);
+  EXPECT_GE(held, 249);           // the buffer's fill first
+  EXPECT_LE(held, 249 + 200);     // then the next exhale rest, within a period
+  EXPECT_EQ(gated.counts().prepared, static_cast<uint64_t>(held));
 }
 
 // the closed loop in-process, lockstep with a latency of 1 step
@@ -209,7 +240,7 @@ TEST(ControllerLoopTest, ClosedLoopInProcessInsertsTowardsTheTarget) {
   // the needle is within 1.1 mm of it (measured), the target within 0.1 mm.
   // (with the preparation phase on: a controller that catches up does not hold the needle)
   ControllerLoopConfig config = loops.inverse.loop;
-  config.preparation = true;
+  config.preparation = Preparation::kExhale;
   ControllerLoop restarted(config, ReadGmshMesh(loops.inverse.mesh_path));
   const SensorFrame frame = ThroughWire(loops.patient.frame());
   ASSERT_TRUE(loops.controller.Step(frame).has_value());

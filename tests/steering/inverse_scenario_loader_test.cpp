@@ -97,19 +97,22 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   EXPECT_FALSE(plain.loop.model.tip_ramp);
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
   EXPECT_FALSE(plain.loop.model_pose_commanded);
-  EXPECT_FALSE(plain.loop.preparation);
+  EXPECT_EQ(plain.loop.preparation, Preparation::kNone);
   std::string text = Edited(DefaultText(), kInverseKey,
                             "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
   text = Edited(text, "  displacement: true",
-                "  model_pose: commanded\n  preparation: true\n  displacement: true");
+                "  model_pose: commanded\n  preparation: exhale\n  displacement: true");
   const InverseScenario s = Load(text);
   EXPECT_TRUE(s.loop.model.tip_ramp);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_TRUE(s.loop.model_pose_commanded);
-  EXPECT_TRUE(s.loop.preparation);
+  EXPECT_EQ(s.loop.preparation, Preparation::kExhale);
   const std::string preparation = LoadError(
       Edited(DefaultText(), "  displacement: true", "  preparation: maybe\n  displacement: true"));
-  EXPECT_NE(preparation.find("prediction.preparation"), std::string::npos) << preparation;
+  EXPECT_NE(preparation.find(
+                "prediction.preparation: expected one of none, buffer, exhale, got 'maybe'"),
+            std::string::npos)
+      << preparation;
   const std::string friction =
       LoadError(Edited(DefaultText(), kInverseKey, "  jacobian_friction: sticky\n" + kInverseKey));
   EXPECT_NE(friction.find("inverse.jacobian_friction: expected one of held, solved, got 'sticky'"),
