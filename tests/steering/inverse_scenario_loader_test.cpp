@@ -100,15 +100,15 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   EXPECT_EQ(plain.loop.preparation, Preparation::kNone);
   std::string text = Edited(DefaultText(), kInverseKey,
                             "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
-  text = Edited(text, "  displacement: true",
-                "  model_pose: commanded\n  preparation: exhale\n  displacement: true");
+  text = Edited(text, "  displacement: true", "  model_pose: commanded\n  displacement: true");
+  text = Edited(text, "  preparation: none ", "  preparation: exhale ");
   const InverseScenario s = Load(text);
   EXPECT_TRUE(s.loop.model.tip_ramp);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_TRUE(s.loop.model_pose_commanded);
   EXPECT_EQ(s.loop.preparation, Preparation::kExhale);
   const std::string preparation = LoadError(
-      Edited(DefaultText(), "  displacement: true", "  preparation: maybe\n  displacement: true"));
+      Edited(DefaultText(), "  preparation: none ", "  preparation: maybe "));
   EXPECT_NE(preparation.find(
                 "prediction.preparation: expected one of none, buffer, exhale, got 'maybe'"),
             std::string::npos)
