@@ -54,7 +54,8 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
     return false;
   }
   score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
-  if (exhale_gate_) {  // the gated start: the first exhale rest once the predictor is ready
+  if (exhale_gate_ && !exhale_entered_) {  // the gated start: the first exhale rest once the
+                                           // predictor is ready
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
     for (const Eigen::Vector3d& p : frame.p_WM) centroid += p;
     const bool entered = exhale_gate_->Add(frame.stamp.sim_time, centroid / frame.p_WM.size());
