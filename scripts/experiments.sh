@@ -20,8 +20,9 @@
 # description: jobs.txt (one job a line: setting, run, seed, E, scenario, controller flags, tab
 # separated), batch.txt, scenario_*.yaml, joblog.txt (GNU parallel's, one line per job).
 # The default scenario is configs/scenarios/liver_breathing.yaml (the 2656-node patient liver;
-# liver_test_coarse.yaml is the 685-node one, faster), the default duration 20 s (the
-# steady-state window, the last 20 %, is one breathing period).
+# liver_test_coarse.yaml is the 685-node one, faster), the default duration 26 s (the default
+# scenario's: its insertion starts at ~8 s, after the exhale-gated preparation; the
+# steady-state window, the last 20 %, is 5.2 s, 1.3 breathing periods).
 # --latency-steps 1,3,5,10 (a list) is a latency sweep: one batch per latency, in
 # DIR/latency_<N>/ (each as above), then DIR/sweep.csv (one row per latency and setting: runs,
 # mean, std and worst final error, mean amplitude, failed runs), DIR/sweep.txt (the same as a
@@ -77,7 +78,7 @@
 # option (the message names it), 1 anything else (e.g. GNU parallel or a plot missing).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=20
+runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=26
 latency=1; gain=""; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
 model_bevel=0; flexible=0
 transport=in_process; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""

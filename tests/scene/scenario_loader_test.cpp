@@ -187,7 +187,7 @@ TEST(ScenarioLoaderTest, PhysicalValuesAreBounded) {
   EXPECT_EQ(LoadError(Edited("time_step: 0.02", "time_step: 1.0e-9")),
             "scenario.yaml: patient.time_step must be in [0.0001, 0.1] (s), got 1e-09");
   // 0.1 ms for 200 s: 2e6 steps (each value alone is within its bounds)
-  std::string long_run = Edited("duration: 20.0", "duration: 200");
+  std::string long_run = Edited("duration: 26.0", "duration: 200");
   long_run.replace(long_run.find("time_step: 0.02"), 15, "time_step: 0.0001");
   const std::string steps = LoadError(long_run);
   EXPECT_NE(steps.find("run.duration / patient.time_step must be at most 1e+06 steps"),

@@ -97,18 +97,18 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   EXPECT_FALSE(plain.loop.model.tip_ramp);
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
   EXPECT_FALSE(plain.loop.model_pose_commanded);
-  EXPECT_EQ(plain.loop.preparation, Preparation::kNone);
+  EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
                             "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
   text = Edited(text, "  displacement: true", "  model_pose: commanded\n  displacement: true");
-  text = Edited(text, "  preparation: none ", "  preparation: exhale ");
+  text = Edited(text, "  preparation: exhale ", "  preparation: buffer ");
   const InverseScenario s = Load(text);
   EXPECT_TRUE(s.loop.model.tip_ramp);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_TRUE(s.loop.model_pose_commanded);
-  EXPECT_EQ(s.loop.preparation, Preparation::kExhale);
+  EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);
   const std::string preparation = LoadError(
-      Edited(DefaultText(), "  preparation: none ", "  preparation: maybe "));
+      Edited(DefaultText(), "  preparation: exhale ", "  preparation: maybe "));
   EXPECT_NE(preparation.find(
                 "prediction.preparation: expected one of none, buffer, exhale, got 'maybe'"),
             std::string::npos)
