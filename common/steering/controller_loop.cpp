@@ -173,6 +173,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     r.horizon = CalcHorizon(t);
     SetCommanded(&input);
     input.latency_steps = latency_steps_;
+    input.hold = preparing_;
     input.X_WE = frame.X_WE;
     input.bevel_angle = frame.bevel_angle;
     if (frame.q.size() == 7) input.q = Eigen::Map<const Vector7d>(frame.q.data());
@@ -205,9 +206,11 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
     return std::nullopt;
   }
-  model_time_.Add(out.timings.simulation);
-  jacobian_time_.Add(out.timings.jacobian);
-  total_time_.Add(out.timings.total);
+  if (!preparing_) {  // the control steps' cost (a held step has no Jacobian and no law)
+    model_time_.Add(out.timings.simulation);
+    jacobian_time_.Add(out.timings.jacobian);
+    total_time_.Add(out.timings.total);
+  }
   const double done = MonotonicSeconds();
   if (last_answer_wall_ > 0) loop_period_.Add(done - last_answer_wall_);
   last_answer_wall_ = done;

@@ -161,6 +161,20 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
   // e_l's map for this step (the liver's lateral stiffness at the unperturbed needle)
   if (liver_load_ && out.phase == InsertionPhase::kInLiver) UpdateLoadMap();
 
+  if (input.hold) {  // the model followed the markers; the robot stays where it is
+    out.e = CalcObjectives(now, out.phase);
+    out.e_expected = out.e;
+    out.p_WTip = now.p_WTip;
+    out.p_WTarget = now.p_WPath[path_index_];
+    out.p_WFinal = now.p_WPath.back();
+    out.valid = out.num_unconverged_solves == 0 && out.e.allFinite();
+    out.X_WE_target = X_WF;
+    out.q_target = input.q;
+    out.timings.simulation = Seconds(t0, t1);
+    out.timings.total = Seconds(t0, Clock::now());
+    return out;
+  }
+
   // Jacobian by central differences (eq. 3.6 / A.2)
   const auto t2 = Clock::now();
   const int n = control_.dof == SteeringDof::kCartesian6 ? 6 : 7;

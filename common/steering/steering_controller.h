@@ -52,6 +52,10 @@ struct SteeringInput {
   /// frame + d; ControllerLoop measures it from applied_seq), 0 when not known yet. It caps the
   /// gain of the liver's load rows (kLoadGainMargin).
   int latency_steps = 0;
+  /// The loop holds the robot this step (ControllerLoop's preparation phase): the model step,
+  /// the phase, the path index and e only; no Jacobian and no law (the target is the measured
+  /// pose). Nothing of the skipped work changes the controller's state.
+  bool hold = false;
 };
 
 /// The gain margin of e_l's rows: their gain is at most the stable limit of a loop that acts

@@ -162,7 +162,9 @@ TEST(ControllerLoopTest, PreparationHoldsTheRobotUntilThePredictorIsReady) {
       ++held;
       EXPECT_TRUE(target->X_WE.isApprox(X_WE0, 0.0)) << k;  // the hold pose, to the bit
       EXPECT_LT((frame.X_WE.translation() - X_WE0.translation()).norm(), 1e-12) << k;
+      EXPECT_EQ(prepared.last_record().timings.jacobian, 0.0) << k;  // a held step has none
     } else {
+      EXPECT_GT(prepared.last_record().timings.jacobian, 0.0) << k;
       moved_after = std::max(moved_after, (target->X_WE.translation() - X_WE0.translation()).norm());
     }
     EXPECT_EQ(target->answers_seq, frame.stamp.seq);
