@@ -213,8 +213,9 @@ void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScen
     pred.CheckKeys({"enabled", "filter", "order", "window", "optimize_window", "window_max",
                     "pca_window", "search_lead", "search_interval", "horizon_window",
                     "localization_delay", "displacement", "measure_latency", "model_pose",
-                    "preparation"});
+                    "preparation", "shrink"});
     pred.Read("displacement", &s->loop.prediction_displacement);
+    pred.Read("shrink", &s->loop.prediction_shrink);
     pred.Read("measure_latency", &s->loop.measure_latency);
     const int preparation = pred.ReadChoice("preparation", {"none", "buffer", "exhale"});
     if (preparation >= 0) s->loop.preparation = static_cast<Preparation>(preparation);

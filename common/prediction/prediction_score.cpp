@@ -5,6 +5,8 @@
 
 namespace nsim {
 
+PredictionScore::PredictionScore(int recent) : recent_(std::max(0, recent)) {}
+
 void PredictionScore::AddPrediction(double t_for, std::vector<Eigen::Vector3d> predicted,
                                     std::vector<Eigen::Vector3d> measured_now) {
   pending_.push_back({t_for, std::move(predicted), std::move(measured_now)});
@@ -15,6 +17,7 @@ void PredictionScore::AddMeasurement(double t, const std::vector<Eigen::Vector3d
     pred_sq_.assign(p.size(), 0.0);
     base_sq_.assign(p.size(), 0.0);
     pred_sum_.assign(p.size(), Eigen::Vector3d::Zero());
+    recent_terms_.assign(p.size(), Recent{std::vector<double>(recent_), std::vector<double>(recent_)});
   }
   while (!pending_.empty() && pending_.front().t_for <= t + 1e-9) {
     const Pending& e = pending_.front();
@@ -28,6 +31,14 @@ void PredictionScore::AddMeasurement(double t, const std::vector<Eigen::Vector3d
         pred_sq_[m] += (e.predicted[m] - truth).squaredNorm();
         pred_sum_[m] += e.predicted[m] - truth;
         base_sq_[m] += (e.measured[m] - truth).squaredNorm();
+        if (recent_ > 0) {
+          Recent& r = recent_terms_[m];
+          const Eigen::Vector3d predicted_change = e.predicted[m] - e.measured[m];
+          r.cross[r.next] = predicted_change.dot(truth - e.measured[m]);
+          r.square[r.next] = predicted_change.squaredNorm();
+          r.next = (r.next + 1) % recent_;
+          r.count = std::min(r.count + 1, recent_);
+        }
       }
       ++scored_;
     }
@@ -43,6 +54,19 @@ std::vector<std::optional<double>> PredictionScore::NrmsPercent() const {
   for (size_t m = 0; m < pred_sq_.size(); ++m)
     out.push_back(base_sq_[m] > 0 ? std::optional<double>(100.0 * std::sqrt(pred_sq_[m] / base_sq_[m]))
                                   : std::nullopt);
+  return out;
+}
+
+std::vector<double> PredictionScore::Shrinkage() const {
+  std::vector<double> out;
+  for (const Recent& r : recent_terms_) {
+    double cross = 0.0, square = 0.0;
+    for (int i = 0; i < r.count; ++i) {
+      cross += r.cross[i];
+      square += r.square[i];
+    }
+    out.push_back(square > 0 ? std::clamp(cross / square, 0.0, 1.0) : 1.0);
+  }
   return out;
 }
 

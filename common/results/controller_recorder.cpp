@@ -30,7 +30,7 @@ ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(ou
   csv_->WriteLine(
       "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
       "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms,model_target_x,model_target_y,"
-      "model_target_z,latency_steps,load_gain,preparing");
+      "model_target_z,latency_steps,load_gain,preparing,shrinkage");
 }
 
 void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
@@ -42,7 +42,7 @@ void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
       << ',' << r.model_tip.y() << ',' << r.model_tip.z() << ',' << 1e3 * r.timings.simulation
       << ',' << 1e3 * r.timings.jacobian << ',' << 1e3 * r.timings.total << ','
       << r.model_target.x() << ',' << r.model_target.y() << ',' << r.model_target.z() << ','
-      << r.latency_steps << ',' << r.load_gain << ',' << r.preparing;
+      << r.latency_steps << ',' << r.load_gain << ',' << r.preparing << ',' << r.shrinkage;
   csv_->WriteLine(row.str());
 }
 
@@ -54,6 +54,11 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
   for (const auto& v : score.NrmsPercent()) nrms.push_back(v ? json(*v) : json(nullptr));
   for (double v : score.Rms()) rms.push_back(1e3 * v);
   for (const Eigen::Vector3d& b : score.Bias()) bias.push_back({1e3 * b.x(), 1e3 * b.y(), 1e3 * b.z()});
+  // the predictor's own predictions (before prediction.shrink) and their shrinkage factors
+  json predictor_nrms = json::array();
+  for (const auto& v : loop.predictor_score().NrmsPercent())
+    predictor_nrms.push_back(v ? json(*v) : json(nullptr));
+  const json shrinkage = loop.predictor_score().Shrinkage();
   // the LF regression window WF each marker's predictor uses at the end (0: no window)
   json windows = json::array();
   if (const MarkerPredictor* p = loop.predictor())
@@ -87,6 +92,8 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
           {"prediction_bias_mm", bias},
           {"predictions_scored", score.scored()},
           {"prediction_windows", windows},
+          {"predictor_nrms_percent", predictor_nrms},
+          {"prediction_shrinkage", shrinkage},
           // the model built mid-insertion (a restarted controller): how it caught up
           {"catch_up",
            {{"first_answered_seq", loop.first_answered_seq()},
@@ -113,6 +120,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
                             : c.preparation == Preparation::kBuffer ? "buffer"
                                                                     : "exhale"},
             {"prediction_displacement", c.prediction_displacement},
+            {"prediction_shrink", c.prediction_shrink},
             {"localization_delay_s", c.horizon.localization_delay},
             {"young_modulus_factor", c.model.young_modulus_factor},
             {"model_needle",

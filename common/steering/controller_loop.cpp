@@ -14,7 +14,10 @@ constexpr size_t kRecentDelays = 10;      // the horizon uses the median of the 
 }  // namespace
 
 ControllerLoop::ControllerLoop(const ControllerLoopConfig& config, TetMesh mesh)
-    : config_(config), mesh_(std::move(mesh)), horizon_(config.horizon) {
+    : config_(config),
+      mesh_(std::move(mesh)),
+      horizon_(config.horizon),
+      predictor_score_(config.prediction.pca_window) {
   config_.model.Validate();
   config_.path.Validate();
   config_.control.Validate();
@@ -54,6 +57,7 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
     return false;
   }
   score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
+  predictor_score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
   if (exhale_gate_ && !exhale_entered_) {  // the gated start: the first exhale rest once the
                                            // predictor is ready
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -185,6 +189,16 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
         predictor_->Predict(0.0, &fit_now_);
         for (size_t m = 0; m < input.p_WM.size(); ++m)
           input.p_WM[m] = frame.p_WM[m] + (input.p_WM[m] - fit_now_[m]);
+      }
+      predictor_score_.AddPrediction(t + r.horizon, input.p_WM, frame.p_WM);
+      if (config_.prediction_shrink) {
+        const std::vector<double> alpha = predictor_score_.Shrinkage();
+        double sum = 0.0;
+        for (size_t m = 0; m < input.p_WM.size() && m < alpha.size(); ++m) {
+          input.p_WM[m] = frame.p_WM[m] + alpha[m] * (input.p_WM[m] - frame.p_WM[m]);
+          sum += alpha[m];
+        }
+        if (!alpha.empty()) r.shrinkage = sum / static_cast<double>(alpha.size());
       }
       score_.AddPrediction(t + r.horizon, input.p_WM, frame.p_WM);
       // the needle where the robot will be when the markers are where they are predicted

@@ -1,6 +1,8 @@
 // The online closed-loop score (PredictionScore) against the batch metrics of metrics.h as a
 // second method: the same predictions, with the truth at the prediction times interpolated by
-// ResampleLinear, give the same nRMS (NormalizedRmsError, eq. 4.20), RMS and bias.
+// ResampleLinear, give the same nRMS (NormalizedRmsError, eq. 4.20), RMS and bias. The
+// shrinkage factor against known scalings of the true displacement and against a scan of the
+// combined prediction's error over alpha.
 #include "common/prediction/prediction_score.h"
 
 #include <gtest/gtest.h>
@@ -97,6 +99,87 @@ TEST(PredictionScoreTest, AStillStreamHasNoNrms) {
   }
   EXPECT_FALSE(score.NrmsPercent()[0].has_value());
   EXPECT_EQ(score.Rms()[0], 0.0);
+}
+
+// frames every 20 ms; after each, a prediction 3 frames ahead whose displacement is `gain`
+// times the true one plus `off` (a displacement the markers never make)
+void Feed(PredictionScore* score, int frames, double gain, const Eigen::Vector3d& off,
+          int first = 0) {
+  for (int k = first; k < first + frames; ++k) {
+    const double t = 0.02 * k;
+    const std::vector<Eigen::Vector3d> now = {Breath(t, 0), Breath(t, 1)};
+    std::vector<Eigen::Vector3d> predicted(2);
+    for (int m = 0; m < 2; ++m)
+      predicted[m] = now[m] + gain * (Breath(t + 0.06, m) - now[m]) + (m == 1 ? off : Eigen::Vector3d::Zero());
+    score->AddMeasurement(t, now);
+    score->AddPrediction(t + 0.06, predicted, now);
+  }
+}
+
+TEST(PredictionScoreTest, ShrinkageUndoesAScaledDisplacement) {
+  for (const double gain : {1.0, 2.0, 4.0}) {
+    PredictionScore score(50);
+    Feed(&score, 200, gain, Eigen::Vector3d::Zero());
+    const std::vector<double> alpha = score.Shrinkage();
+    ASSERT_EQ(alpha.size(), 2u);
+    EXPECT_NEAR(alpha[0], 1.0 / gain, 1e-12) << "gain " << gain;
+    EXPECT_NEAR(alpha[1], 1.0 / gain, 1e-12) << "gain " << gain;
+  }
+  // never more than the predictor's own extrapolation, never negative
+  PredictionScore under(50), reversed(50);
+  Feed(&under, 200, 0.5, Eigen::Vector3d::Zero());
+  Feed(&reversed, 200, -1.0, Eigen::Vector3d::Zero());
+  EXPECT_EQ(under.Shrinkage()[0], 1.0);
+  EXPECT_EQ(reversed.Shrinkage()[0], 0.0);
+}
+
+TEST(PredictionScoreTest, ShrinkageMinimizesTheCombinedError) {
+  // marker 1's predictions carry a constant 0.3 mm the markers never move: part of each
+  // prediction comes true, part does not; the factor is the minimum of a scan of the combined
+  // prediction's squared error over the same 80 newest predictions
+  const Eigen::Vector3d off(3e-4, -1e-4, 2e-4);
+  PredictionScore score(80);
+  Feed(&score, 400, 1.0, off);
+  const double alpha = score.Shrinkage()[1];
+  EXPECT_GT(alpha, 0.05);
+  EXPECT_LT(alpha, 0.95);
+  auto error = [&](double a) {  // the same 80 predictions: made at frames 317..396
+    double sum = 0.0;
+    for (int k = 317; k <= 396; ++k) {
+      const double t = 0.02 * k;
+      const Eigen::Vector3d change = Breath(t + 0.06, 1) - Breath(t, 1);
+      sum += (a * (change + off) - change).squaredNorm();
+    }
+    return sum;
+  };
+  double best = 0.0, best_error = error(0.0);  // a scan by 1e-3, then by 1e-6 around its best
+  for (double step : {1e-3, 1e-6}) {
+    const double centre = best;
+    for (int i = -1000; i <= 1000; ++i) {
+      const double a = centre + i * step;
+      if (a < 0.0 || a > 1.0) continue;
+      const double e = error(a);
+      if (e < best_error) best = a, best_error = e;
+    }
+  }
+  EXPECT_NEAR(alpha, best, 2e-6);
+  EXPECT_EQ(score.Shrinkage()[0], 1.0);  // marker 0's predictions are exact
+}
+
+TEST(PredictionScoreTest, ShrinkageForgetsAllButTheNewest) {
+  PredictionScore score(40);
+  Feed(&score, 300, 3.0, Eigen::Vector3d::Zero());
+  EXPECT_NEAR(score.Shrinkage()[0], 1.0 / 3.0, 1e-12);
+  Feed(&score, 43, 1.0, Eigen::Vector3d::Zero(), 300);  // 40 newer exact predictions scored
+  EXPECT_NEAR(score.Shrinkage()[0], 1.0, 1e-12);
+}
+
+TEST(PredictionScoreTest, ShrinkageIsOneUntilAPredictionIsScored) {
+  PredictionScore score(40);
+  EXPECT_TRUE(score.Shrinkage().empty());
+  Feed(&score, 3, 5.0, Eigen::Vector3d::Zero());  // nothing scored yet (3 frames ahead)
+  EXPECT_EQ(score.scored(), 0u);
+  EXPECT_EQ(score.Shrinkage(), std::vector<double>(2, 1.0));
 }
 
 }  // namespace

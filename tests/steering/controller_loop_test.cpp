@@ -209,6 +209,48 @@ TEST(ControllerLoopTest, AnExhaleGatedStartWaitsForTheExhaleRest) {
   EXPECT_EQ(gated.counts().prepared, static_cast<uint64_t>(held));
 }
 
+// prediction.shrink: a loop that shrinks its predicted displacements and one that does not,
+// fed the same frames (the patient driven by the second): the predictor's own predictions are
+// the same in both (its score equal to the bit), the shrinking one registers to others (its
+// score differs) and records the mean factor, in [0, 1], below 1 once a prediction missed
+TEST(ControllerLoopTest, ShrinkScalesThePredictedDisplacements) {
+  Loops loops;
+  ControllerLoopConfig config = WithQuickPredictor(loops.inverse.loop);
+  config.prediction_shrink = true;
+  ControllerLoop shrinking(config, ReadGmshMesh(loops.inverse.mesh_path));
+  config.prediction_shrink = false;
+  ControllerLoop plain(config, ReadGmshMesh(loops.inverse.mesh_path));
+  LockstepTargets delay(3);
+  double lowest = 1.0;
+  for (int k = 0; k < 120; ++k) {
+    const SensorFrame frame = loops.patient.frame();
+    const std::optional<RobotTarget> target = plain.Step(frame);
+    ASSERT_TRUE(target.has_value()) << plain.counts().last_rejection;
+    ASSERT_TRUE(shrinking.Step(frame).has_value()) << shrinking.counts().last_rejection;
+    const double alpha = shrinking.last_record().shrinkage;
+    EXPECT_GE(alpha, 0.0) << k;
+    EXPECT_LE(alpha, 1.0) << k;
+    EXPECT_EQ(plain.last_record().shrinkage, 1.0) << k;
+    if (!shrinking.last_record().predicted) EXPECT_EQ(alpha, 1.0) << k;
+    lowest = std::min(lowest, alpha);
+    delay.Add(*target);
+    loops.patient.Step(delay.TakeFor(k));
+  }
+  ASSERT_GT(plain.score().scored(), 60u);
+  const auto own = shrinking.predictor_score().NrmsPercent(), unshrunk = plain.score().NrmsPercent(),
+             used = shrinking.score().NrmsPercent();
+  ASSERT_EQ(own.size(), unshrunk.size());
+  bool differs = false;
+  for (size_t m = 0; m < own.size(); ++m) {
+    ASSERT_TRUE(own[m] && unshrunk[m] && used[m]);
+    EXPECT_EQ(*own[m], *unshrunk[m]) << "marker " << m;
+    EXPECT_EQ(*plain.predictor_score().NrmsPercent()[m], *unshrunk[m]) << "marker " << m;
+    differs = differs || *used[m] != *own[m];
+  }
+  EXPECT_TRUE(differs);
+  EXPECT_LT(lowest, 1.0);
+}
+
 // the closed loop in-process, lockstep with a latency of 1 step
 TEST(ControllerLoopTest, ClosedLoopInProcessInsertsTowardsTheTarget) {
   Loops loops;
