@@ -98,21 +98,27 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
   EXPECT_FALSE(plain.loop.model_pose_commanded);
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
+  EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
                             "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
   text = Edited(text, "  displacement: true", "  model_pose: commanded\n  displacement: true");
   text = Edited(text, "  preparation: exhale ", "  preparation: buffer ");
+  text = Edited(text, "  shrink: true ", "  shrink: false ");
   const InverseScenario s = Load(text);
   EXPECT_TRUE(s.loop.model.tip_ramp);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_TRUE(s.loop.model_pose_commanded);
   EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);
+  EXPECT_FALSE(s.loop.prediction_shrink);
   const std::string preparation = LoadError(
       Edited(DefaultText(), "  preparation: exhale ", "  preparation: maybe "));
   EXPECT_NE(preparation.find(
                 "prediction.preparation: expected one of none, buffer, exhale, got 'maybe'"),
             std::string::npos)
       << preparation;
+  const std::string shrink = LoadError(Edited(DefaultText(), "  shrink: true ", "  shrink: maybe "));
+  EXPECT_NE(shrink.find("prediction.shrink: expected true or false, got 'maybe'"), std::string::npos)
+      << shrink;
   const std::string friction =
       LoadError(Edited(DefaultText(), kInverseKey, "  jacobian_friction: sticky\n" + kInverseKey));
   EXPECT_NE(friction.find("inverse.jacobian_friction: expected one of held, solved, got 'sticky'"),
