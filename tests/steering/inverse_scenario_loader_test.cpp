@@ -96,18 +96,18 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   const InverseScenario plain = Load(DefaultText());
   EXPECT_FALSE(plain.loop.model.tip_ramp);
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
-  EXPECT_FALSE(plain.loop.model_pose_commanded);
+  EXPECT_TRUE(plain.loop.model_pose_commanded);             // the default scenario's
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
                             "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
-  text = Edited(text, "  displacement: true", "  model_pose: commanded\n  displacement: true");
+  text = Edited(text, "  model_pose: commanded ", "  model_pose: measured ");
   text = Edited(text, "  preparation: exhale ", "  preparation: buffer ");
   text = Edited(text, "  shrink: true ", "  shrink: false ");
   const InverseScenario s = Load(text);
   EXPECT_TRUE(s.loop.model.tip_ramp);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
-  EXPECT_TRUE(s.loop.model_pose_commanded);
+  EXPECT_FALSE(s.loop.model_pose_commanded);
   EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);
   EXPECT_FALSE(s.loop.prediction_shrink);
   const std::string preparation = LoadError(
@@ -125,7 +125,7 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
             std::string::npos)
       << friction;
   const std::string pose = LoadError(
-      Edited(DefaultText(), "  displacement: true", "  model_pose: future\n  displacement: true"));
+      Edited(DefaultText(), "  model_pose: commanded ", "  model_pose: future "));
   EXPECT_NE(pose.find("prediction.model_pose: expected one of measured, commanded, got 'future'"),
             std::string::npos)
       << pose;
