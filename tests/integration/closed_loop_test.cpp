@@ -363,6 +363,7 @@ TEST(ClosedLoop, PredictionBeatsNoPredictionForEveryMarker) {
     // without prediction.shrink the model registers to the predictor's own predictions: the
     // two scores are of the same predictions; the shrinkage factor is still measured
     EXPECT_FALSE(i["settings"]["prediction_shrink"].get<bool>());
+    EXPECT_EQ(i["settings"]["model_pose"].get<std::string>(), "measured");
     EXPECT_EQ(i["predictor_nrms_percent"][m].get<double>(), i["nrms_percent"][m].get<double>());
     EXPECT_GE(i["prediction_shrinkage"][m].get<double>(), 0.0) << "marker " << m;
     EXPECT_LE(i["prediction_shrinkage"][m].get<double>(), 1.0) << "marker " << m;
