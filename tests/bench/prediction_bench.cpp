@@ -1,5 +1,6 @@
 // Prediction timings: one MarkerPredictor update + prediction of 5 markers (target <= 20 us) and
-// one golden-section window search over a 300-sample PCA buffer (target <= 5 ms).
+// one golden-section window search over a 300-sample PCA buffer (target <= 5 ms); the online
+// score of one frame's predictions, without and with the shrinkage factor (prediction.shrink).
 #include <benchmark/benchmark.h>
 
 #include <vector>
@@ -9,6 +10,7 @@
 #include "common/prediction/marker_predictor.h"
 #include "common/prediction/pca_buffer.h"
 #include "common/prediction/polynomial_filter.h"
+#include "common/prediction/prediction_score.h"
 
 namespace nsim {
 namespace {
@@ -73,6 +75,29 @@ void WindowSearch(benchmark::State& state, int order) {
   state.counters["window"] = window;
 }
 
+// what the controller loop does per frame for its score: a measurement, a prediction 6 frames
+// ahead; with `recent` > 0 also the shrinkage factors over the newest `recent` scored
+// predictions (recent = 0: the score alone, the loop's work before prediction.shrink)
+void ScoreFrame(benchmark::State& state, int recent) {
+  const MarkerStream stream = Stream(120);
+  const int n = static_cast<int>(stream.frames.size());
+  const double period = stream.frames.back().stamp.sim_time + 1 / 30.0;
+  PredictionScore score(recent);
+  std::vector<Eigen::Vector3d> predicted(kMarkers);
+  long k = 0;
+  for (auto _ : state) {
+    const MarkerFrame& source = stream.frames[k % n];
+    const double t = source.stamp.sim_time + period * (k / n);
+    score.AddMeasurement(t, source.p_WM);
+    for (int m = 0; m < kMarkers; ++m) predicted[m] = source.p_WM[m] + Eigen::Vector3d(1e-4, 0, 0);
+    score.AddPrediction(t + 0.2, predicted, source.p_WM);
+    if (recent > 0) benchmark::DoNotOptimize(score.Shrinkage().data());
+    ++k;
+  }
+}
+
+BENCHMARK_CAPTURE(ScoreFrame, score, 0)->Name("ScoreFrame/5markers/score");
+BENCHMARK_CAPTURE(ScoreFrame, shrink300, 300)->Name("ScoreFrame/5markers/score+shrinkage300");
 BENCHMARK_CAPTURE(PredictorUpdate, lf_wf50, PredictionFilterKind::kLinear, 50)
     ->Name("PredictorUpdate/5markers/WF50");
 BENCHMARK_CAPTURE(PredictorUpdate, lf_wf10, PredictionFilterKind::kLinear, 10)
