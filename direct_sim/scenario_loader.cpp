@@ -12,7 +12,8 @@ namespace {
 
 const std::vector<std::string> kOwnSections = {"random_seed", "shared", "patient",   "breathing",
                                                "needle",      "robot",  "insertion", "safety",
-                                               "run",         "view",   "dds",       "watchdog"};
+                                               "run",         "view",   "dds",       "watchdog",
+                                               "tracker"};
 
 std::string DirName(const std::string& path) {
   const size_t slash = path.find_last_of('/');
@@ -58,6 +59,7 @@ void ValidateScenario(const DirectScenario& s) {
   ValidateAs([&] { s.safety.Validate(); }, src, "", "");
   ValidateAs([&] { s.run.Validate(); }, src, "", "");
   ValidateAs([&] { s.watchdog.Validate(); }, src, "", "");
+  ValidateAs([&] { s.tracker.Validate(); }, src, "", "");
   ValidateAs([&] { s.view.Validate(); }, src, "", "");
   if (s.dds_domain < 0 || s.dds_domain > 232)
     throw InputError(Str(src, ": dds.domain must be in [0, 232], got ", s.dds_domain));
@@ -143,6 +145,7 @@ DirectScenario ParseDirectScenario(const YamlReader& root, const std::string& ba
   if (root.Has("safety")) direct_sections::ReadSafety(root.Child("safety"), &s.safety);
   if (root.Has("run")) direct_sections::ReadRun(root.Child("run"), &s.run);
   if (root.Has("watchdog")) direct_sections::ReadWatchdog(root.Child("watchdog"), &s.watchdog);
+  if (root.Has("tracker")) direct_sections::ReadTracker(root.Child("tracker"), &s.tracker);
   if (root.Has("view")) direct_sections::ReadView(root.Child("view"), &s.view);
   if (root.Has("dds")) direct_sections::ReadDds(root.Child("dds"), &s.dds_domain, &s.dds_partition);
 

@@ -69,6 +69,8 @@ struct DirectScenario {
   TargetGateConfig safety;
   RunConfig run;
   WatchdogConfig watchdog;  ///< the plausible bounds of the state
+  /// The tracker's noise on the published markers; its seed is random_seed (LoopConfig).
+  TrackerNoiseConfig tracker;
   ViewerConfig view;
   int dds_domain = 0;
   std::string dds_partition = "nsim";
@@ -77,14 +79,17 @@ struct DirectScenario {
   /// A lockstep run adopts the liver's factor refreshes on schedule (deterministic), whatever
   /// patient.liver.refactor_adoption says: that key chooses for realtime runs. Its refresh
   /// worker stays in the normal class (FemConfig::idle_refresh_worker), so that the scheduled
-  /// adoptions do not wait for an idle machine.
+  /// adoptions do not wait for an idle machine. The tracker's noise is seeded by random_seed
+  /// (--seed), independently of the breathing's draws.
   PatientLoopConfig LoopConfig(bool controller) const {
     PatientSceneConfig run_scene = scene;
     if (run.mode == RunMode::kLockstep) {
       run_scene.liver.refactor_adoption = FactorAdoption::kScheduled;
       run_scene.liver.idle_refresh_worker = false;
     }
-    return {run_scene, robot, insertion, safety, controller, watchdog};
+    TrackerNoiseConfig run_tracker = tracker;
+    run_tracker.random_seed = random_seed;
+    return {run_scene, robot, insertion, safety, controller, watchdog, run_tracker};
   }
 };
 

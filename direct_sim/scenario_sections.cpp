@@ -187,6 +187,11 @@ void ReadWatchdog(const YamlReader& node, WatchdogConfig* w) {
   node.Read("inversion_check_every", &w->inversion_check_every);
 }
 
+void ReadTracker(const YamlReader& node, TrackerNoiseConfig* t) {
+  node.CheckKeys({"marker_noise"});
+  node.Read("marker_noise", &t->marker_std);
+}
+
 void ReadDds(const YamlReader& node, int* domain, std::string* partition) {
   node.CheckKeys({"domain", "partition"});
   node.Read("domain", domain);

@@ -28,6 +28,8 @@ void ReadSafety(const YamlReader& node, TargetGateConfig* safety);
 void ReadRun(const YamlReader& node, RunConfig* run);
 /// watchdog: the plausible bounds of the state (PhysicsWatchdog).
 void ReadWatchdog(const YamlReader& node, WatchdogConfig* w);
+/// tracker: the measurement noise on the published markers (marker_noise, m).
+void ReadTracker(const YamlReader& node, TrackerNoiseConfig* t);
 /// view: camera and image.
 void ReadView(const YamlReader& node, ViewerConfig* v);
 /// dds: domain and partition.

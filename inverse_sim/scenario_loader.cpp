@@ -270,7 +270,8 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   const YamlReader root = YamlReader::LoadFile(path);
   // every top-level section of a scenario file (both processes'), so a typo is caught here too
   root.CheckKeys({"random_seed", "shared", "patient", "breathing", "needle", "robot", "insertion",
-                  "safety", "watchdog", "run", "view", "dds", "inverse", "controller", "prediction"});
+                  "safety", "watchdog", "tracker", "run", "view", "dds", "inverse", "controller",
+                  "prediction"});
   InverseScenario s;
   s.source = path;
   s.shared = ReadSharedScenario(root);

@@ -251,6 +251,7 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
                    {"insertion_speed_m_s", c.insertion.speed},
                    {"breathing_period_s", sc.breathing.period},
                    {"breathing_si_amplitude_m", sc.breathing.si_amplitude},
+                   {"tracker_marker_noise_m", c.tracker.marker_std},
                    {"entry_m", Vec(sc.entry_W)},
                    {"target_m", Vec(sc.target_W)},
                    {"safety_max_age_s", safety.max_age},

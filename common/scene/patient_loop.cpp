@@ -19,7 +19,7 @@ void InsertionConfig::Validate() const {
 
 PatientLoop::PatientLoop(const PatientLoopConfig& config, const TetMesh& liver_mesh,
                          const TetMesh& skin_mesh)
-    : config_(config), gate_(config.safety) {
+    : config_(config), gate_(config.safety), tracker_(config.tracker) {
   config_.insertion.Validate();
   const PatientSceneConfig& sc = config_.scene;
   const RigidNeedleModel needle(sc.needle.geometry());
@@ -42,7 +42,9 @@ void PatientLoop::Sample() {
   f.stamp.seq = static_cast<uint64_t>(steps_);
   f.stamp.sim_time = scene_->time();
   f.stamp.wall_time_ns = 0;  // set by the transport when sent
-  scene_->CalcMarkerPositions(&f.p_WM);
+  scene_->CalcMarkerPositions(&exact_markers_);
+  f.p_WM = exact_markers_;
+  tracker_.Apply(&f.p_WM);
   f.has_robot = true;
   f.X_WE = robot_->X_WE();
   f.q = robot_->q();
@@ -65,7 +67,7 @@ void PatientLoop::Sample() {
     WatchdogInput in;
     in.step = steps_;
     in.target = &r.target;
-    in.markers = &f.p_WM;
+    in.markers = &exact_markers_;
     in.tip = &r.tip;
     in.liver = &scene_->model().liver();
     in.liver_state = &scene_->state().liver;

@@ -15,8 +15,10 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/core/samples.h"
+#include "common/markers/tracker_noise.h"
 #include "common/mesh/tet_mesh.h"
 #include "common/scene/patient_scene.h"
 #include "common/scene/physics_watchdog.h"
@@ -47,6 +49,8 @@ struct PatientLoopConfig {
   bool controller = true;
   /// The plausible bounds of the state (PhysicsWatchdog).
   WatchdogConfig watchdog;
+  /// The tracker's noise on the published markers (the watchdog checks the exact ones).
+  TrackerNoiseConfig tracker;
 };
 
 /// The truth of the current state, for logs and summaries (not sent to the controller).
@@ -82,8 +86,9 @@ class PatientLoop {
               const TetMesh& skin_mesh);
   ~PatientLoop();
 
-  /// The sensor frame of the current state (seq = steps done); every frame handed out is
-  /// registered with the gate, so targets answering it can be aged.
+  /// The sensor frame of the current state (seq = steps done), its markers as the tracker
+  /// measures them (config.tracker); every frame handed out is registered with the gate, so
+  /// targets answering it can be aged.
   const SensorFrame& frame() const { return frame_; }
   /// The truth of the current state.
   const PatientRecord& record() const { return record_; }
@@ -138,6 +143,8 @@ class PatientLoop {
   int64_t steps_ = 0;
   SensorFrame frame_;
   PatientRecord record_;
+  TrackerNoise tracker_;
+  std::vector<Eigen::Vector3d> exact_markers_;  // before the tracker's noise
   PatientStepReport last_step_;
 };
 

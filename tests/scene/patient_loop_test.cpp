@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <vector>
+
 #include "common/core/error.h"
 #include "common/scene/lockstep_targets.h"
 #include "tests/scene/scene_test_util.h"
@@ -106,6 +109,46 @@ TEST(PatientLoopTest, LockstepLatencyAppliesTheAnswerToFrameKMinusD) {
   EXPECT_FALSE(delay.TakeFor(5).has_value());
   EXPECT_EQ(delay.pending(), 1u);
   EXPECT_THROW(LockstepTargets(-1), InputError);
+}
+
+// The tracker's noise is on the published markers only: the physics, the record and the
+// watchdog see the exact state (a loop without noise steps to the same state, bit for bit),
+// the published markers differ from the exact ones by noise of the configured size, and the
+// run's seed decides the draws.
+TEST(PatientLoopTest, TheTrackersNoiseIsOnThePublishedMarkersOnly) {
+  DirectScenario s = testing::LoadCoarseScenario();
+  s.tracker.marker_std = 3e-4;
+  DirectScenario exact_s = s, other_s = s;
+  exact_s.tracker.marker_std = 0.0;
+  other_s.random_seed = s.random_seed + 1;
+  PatientLoop noisy = MakeLoop(s, false), again = MakeLoop(s, false);
+  PatientLoop exact = MakeLoop(exact_s, false), other = MakeLoop(other_s, false);
+  double sum2 = 0.0;
+  int draws = 0;
+  bool seed_matters = false;
+  for (int k = 0; k < 20; ++k) {
+    noisy.Step();
+    again.Step();
+    exact.Step();
+    other.Step();
+    ASSERT_TRUE(noisy.healthy()) << noisy.fault();
+    EXPECT_EQ(noisy.record().target, exact.record().target);
+    EXPECT_EQ(noisy.record().tip, exact.record().tip);
+    std::vector<Eigen::Vector3d> truth;
+    noisy.scene().CalcMarkerPositions(&truth);
+    ASSERT_EQ(noisy.frame().p_WM.size(), truth.size());
+    for (size_t m = 0; m < truth.size(); ++m) {
+      EXPECT_EQ(exact.frame().p_WM[m], truth[m]);
+      EXPECT_EQ(noisy.frame().p_WM[m], again.frame().p_WM[m]);
+      seed_matters = seed_matters || other.frame().p_WM[m] != noisy.frame().p_WM[m];
+      sum2 += (noisy.frame().p_WM[m] - truth[m]).squaredNorm();
+      draws += 3;
+    }
+  }
+  EXPECT_TRUE(seed_matters);
+  // 300 draws: the sample standard deviation is within 4 % (one standard error) of sigma;
+  // 25 % is six standard errors
+  EXPECT_NEAR(std::sqrt(sum2 / draws), 3e-4, 0.25 * 3e-4);
 }
 
 }  // namespace

@@ -110,6 +110,25 @@ TEST(ScenarioLoaderTest, ConstraintComplianceChoices) {
 
 // patient.prefetch_ahead and patient.prefetch_rib_margin: read, and bounded like the other
 // lengths
+TEST(ScenarioLoaderTest, TrackerNoise) {
+  const auto load = [](const std::string& text) {
+    return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
+                               SourcePath("configs/scenarios"));
+  };
+  EXPECT_EQ(load(DefaultText()).tracker.marker_std, 0.0);
+  const DirectScenario s = load(Edited("marker_noise: 0.0 ", "marker_noise: 0.0002 "));
+  EXPECT_EQ(s.tracker.marker_std, 0.0002);
+  // seeded by the run's seed, whatever the section says
+  EXPECT_EQ(s.LoopConfig(true).tracker.random_seed, s.random_seed);
+  EXPECT_EQ(LoadError(Edited("marker_noise: 0.0 ", "marker_noise: -0.001 ")),
+            "scenario.yaml: tracker.marker_noise must be a standard deviation in [0, 0.01] m, "
+            "got -0.001");
+  EXPECT_EQ(LoadError(Edited("marker_noise: 0.0 ", "marker_noise: loud ")),
+            "scenario.yaml: tracker.marker_noise: expected a number, got 'loud'");
+  EXPECT_NE(LoadError(Edited("marker_noise: 0.0 ", "marker_nois: 0.0 ")).find("marker_nois"),
+            std::string::npos);
+}
+
 TEST(ScenarioLoaderTest, PrefetchDistances) {
   const auto load = [](const std::string& text) {
     return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
