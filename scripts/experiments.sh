@@ -6,7 +6,8 @@
 # the controller's model too, and the flexible needle (patient and model).
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
-#                          [--latency-steps N[,N...]] [--gain K] [--e-spread F] [--bevel] [--dof7]
+#                          [--latency-steps N[,N...]] [--gain K] [--e-spread F] [--marker-noise S]
+#                          [--bevel] [--dof7]
 #                          [--model-bevel] [--flexible]
 #                          [--settings REGEX] [--no-build] [--transport in_process|dds] [--jobs N] [--timeout S]
 #                          [--hosts H1,H2,... | --slurm] [--dry-run]
@@ -39,6 +40,9 @@
 # --e-spread F: the patient's E is drawn uniformly within E0 (1 +- F), F in [0, 1) (default
 # 0.13, the thesis's +-13 %); 0 gives every run the model's nominal E, with the same breathing
 # seeds (the draws consume the same random numbers), to take the stiffness error out of a batch.
+# --marker-noise S: the tracker's noise on the markers direct_sim publishes, S metres of standard
+# deviation per coordinate (tracker.marker_noise in every setting's scenario; default: the
+# scenario's, 0 in the default one), seeded by each run's seed.
 # --gain K sets the control gains k (eq. 3.9 / A.3) of every setting (the scenarios' default,
 # 0.2, serves every latency with controller.compensate_in_flight: README, "Control under
 # latency").
@@ -79,7 +83,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=26
-latency=1; gain=""; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
+latency=1; gain=""; noise=""; noise_given=0; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
 model_bevel=0; flexible=0
 transport=in_process; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
@@ -87,7 +91,7 @@ die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # the options that take a value must have one
   case "$1" in
-    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--e-spread|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--e-spread|--marker-noise|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
       [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
   esac
   case "$1" in
@@ -98,6 +102,7 @@ while [ $# -gt 0 ]; do
     --latency-steps) latency="$2"; shift 2 ;;
     --gain) gain="$2"; shift 2 ;;
     --e-spread) espread="$2"; shift 2 ;;
+    --marker-noise) noise="$2"; noise_given=1; shift 2 ;;
     --bevel) bevel=1; shift ;;
     --dof7) dof7=1; shift ;;
     --model-bevel) model_bevel=1; shift ;;
@@ -127,6 +132,9 @@ fi
 [ -f "$scenario" ] || die "--scenario: no such file: $scenario"
 [ -z "$gain" ] || [[ "$gain" =~ ^(0?\.[0-9]*[1-9][0-9]*|1(\.0*)?)$ ]] \
   || die "--gain must be a number in (0, 1], got '$gain'"
+[ "$noise_given" = 0 ] || { [[ "$noise" =~ ^([0-9]+\.?[0-9]*|\.[0-9]+)([eE]-?[0-9]+)?$ ]] &&
+  awk -v n="$noise" 'BEGIN { exit !(n <= 0.01) }'; } \
+  || die "--marker-noise must be a standard deviation in [0, 0.01] m, got '$noise'"
 [[ "$espread" =~ ^(0(\.[0-9]*)?|\.[0-9]+)$ ]] \
   || die "--e-spread must be a fraction in [0, 1), got '$espread'"
 case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
@@ -297,6 +305,7 @@ if [[ "$latency" == *,* ]]; then
   sub=(--runs "$runs" --seed "$seed" --scenario "$scenario" --duration "$duration" --transport "$transport"
        --timeout "$timeout" --no-build)
   [ -z "$gain" ] || sub+=(--gain "$gain")
+  [ -z "$noise" ] || sub+=(--marker-noise "$noise")
   [ "$bevel" = 0 ] || sub+=(--bevel)
   [ "$dof7" = 0 ] || sub+=(--dof7)
   [ "$model_bevel" = 0 ] || sub+=(--model-bevel)
@@ -353,12 +362,17 @@ fi
 # --gain K replaces the controller's gains (position, angle, entry) in every variant
 gain_expr=()
 [ -z "$gain" ] || gain_expr=(-e "s|^\(  gains:\).*|\1 {position: $gain, angle: $gain, entry: $gain}|")
+# --marker-noise S replaces tracker.marker_noise in every variant
+[ -z "$noise" ] || gain_expr+=(-e "s|^\(  marker_noise:\) *[^ #]*|\1 $noise|")
 variant() {  # variant NAME SED-EXPRESSION...
   local name="$1"; shift
   local dir; dir="$(dirname "$scenario")"
   sed -e "s|\.\./meshes/|$(realpath "$dir/../meshes")/|g" "$@" "${gain_expr[@]}" "$scenario" > "$out/scenario_$name.yaml"
   if [ -n "$gain" ] && ! grep -q "^  gains: {position: $gain," "$out/scenario_$name.yaml"; then
     die "cannot set the gains in $scenario (no '  gains:' line)"
+  fi
+  if [ -n "$noise" ] && ! grep -q "^  marker_noise: $noise\( \|$\)" "$out/scenario_$name.yaml"; then
+    die "cannot set the marker noise in $scenario (no '  marker_noise:' line under 'tracker:')"
   fi
   echo "$out/scenario_$name.yaml"
 }
@@ -422,6 +436,7 @@ done > "$out/jobs.txt"
 njobs=$(wc -l < "$out/jobs.txt")
 # what --collect needs besides jobs.txt (the table's footer), and a record of the batch
 printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" e_spread "$espread" latency_steps "$latency" \
+  marker_noise "${noise:-scenario}" \
   duration_s "$duration" transport "$transport" timeout_s "$timeout" > "$out/batch.txt"
 
 # the one-run command shared by every job (parallel adds the job's six fields as {1}..{6},

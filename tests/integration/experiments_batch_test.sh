@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # scripts/experiments.sh's batch description (--dry-run: no simulation runs): the per-run draws
-# of the breathing seed and the patient's Young's modulus, --e-spread, and its bad values.
+# of the breathing seed and the patient's Young's modulus, --e-spread, --marker-noise, and their
+# bad values.
 # Usage: experiments_batch_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: experiments_batch_test.sh SOURCE_DIR}"
@@ -43,17 +44,33 @@ awk -v e0="$e0" '
   END { if (wide == 0) { print "no default draw beyond +-5 %: not a +-13 % spread"; bad = 1 }; exit bad }' \
   "$work/all" >&2 || fail "the draws (above)"
 
-# bad values: exit 2 and a message that names the option
-for v in 1.5 1 -0.1 abc ''; do
-  if batch "$work/bad" --e-spread "$v"; then
-    fail "--e-spread '$v' was accepted"
-  else
-    rc=$?
-    [ "$rc" = 2 ] || fail "--e-spread '$v': exit $rc, expected 2"
-    grep -q -- '--e-spread' "$work/bad.log" || fail "--e-spread '$v': the message does not name the option: $(cat "$work/bad.log")"
-  fi
-  rm -rf "$work/bad"
-done
+# refused OPTION VALUE...: each bad value exits 2 with a message that names the option
+refused() {
+  local option="$1" v rc; shift
+  for v in "$@"; do
+    if batch "$work/bad" "$option" "$v"; then
+      fail "$option '$v' was accepted"
+    else
+      rc=$?
+      [ "$rc" = 2 ] || fail "$option '$v': exit $rc, expected 2"
+      grep -q -- "$option" "$work/bad.log" || fail "$option '$v': the message does not name the option: $(cat "$work/bad.log")"
+    fi
+    rm -rf "$work/bad"
+  done
+}
+refused --e-spread 1.5 1 -0.1 abc ''
+
+# --marker-noise: the tracker's noise in the batch's scenario, recorded in batch.txt; the same
+# seeds and E draws
+batch "$work/noisy" --marker-noise 0.0002 || fail "--marker-noise 0.0002: exit $? ($(cat "$work/noisy.log"))"
+grep -q '^  marker_noise: 0.0002 ' "$work/noisy/scenario_base.yaml" \
+  || fail "--marker-noise: scenario_base.yaml has $(grep marker_noise "$work/noisy/scenario_base.yaml")"
+grep -q '^  marker_noise: 0.0 ' "$work/default/scenario_base.yaml" \
+  || fail "default: scenario_base.yaml has $(grep marker_noise "$work/default/scenario_base.yaml")"
+grep -qx 'marker_noise 0.0002' "$work/noisy/batch.txt" || fail "--marker-noise: batch.txt lacks 'marker_noise 0.0002'"
+cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/noisy/jobs.txt") \
+  || fail "--marker-noise changed the seeds or the E draws"
+refused --marker-noise -0.001 0.02 abc ''
 
 if [ "$fails" -gt 0 ]; then echo "experiments_batch_test: $fails failure(s)" >&2; exit 1; fi
 echo "experiments_batch_test: passed"
