@@ -12,6 +12,11 @@
 Each share is the mean of its distance over the window's answered frames; the mean vector of
 the registration error (model - true, mm) shows its direction.
 
+A frame registered to predicted markers (inverse.csv's `predicted` 1) places the model's target
+where the true one will be at t + `horizon`: its registration error compares it with the true
+target of the frame at t + horizon (the nearest frame; frames whose t + horizon is past the run
+are left out). Without these columns (older runs) every frame compares at t.
+
 Where the registration error comes from in time: the registration error at the last answered
 frame before the needle punctures the skin (breathing alone: the markers drive both livers the
 same way) and before it punctures the liver (the skin's pull on the liver added), from the
@@ -35,7 +40,7 @@ def fail(message):
     sys.exit(2)
 
 
-def rows(path, keys):
+def rows(path, keys, optional=()):
     if not os.path.isfile(path):
         fail(path + ": missing")
     with open(path) as f:
@@ -43,6 +48,7 @@ def rows(path, keys):
         missing = [k for k in keys if k not in (reader.fieldnames or [])]
         if missing:
             fail("%s: no column %s" % (path, ", ".join(missing)))
+        keys = list(keys) + [k for k in optional if k in (reader.fieldnames or [])]
         out = []
         for line, row in enumerate(reader, 2):
             try:
@@ -57,8 +63,18 @@ def rows(path, keys):
 def budget(direct_csv, inverse_csv):
     xyz = lambda p: [p + "_" + a for a in "xyz"]
     truth = rows(direct_csv, ["t", "phase"] + xyz("target") + xyz("tip"))
-    model = rows(inverse_csv, ["sim_time", "valid"] + xyz("model_tip") + xyz("model_target"))
+    model = rows(inverse_csv, ["sim_time", "valid"] + xyz("model_tip") + xyz("model_target"),
+                 optional=("predicted", "horizon"))
     by_time = {round(r["t"], 9): r for r in truth}
+    times = [r["t"] for r in truth]
+    step = (times[-1] - times[0]) / (len(times) - 1) if len(times) > 1 else 0.0
+
+    def truth_at(t):  # the frame nearest to t on the run's time grid, None past the run
+        if step <= 0:
+            return by_time.get(round(t, 9))
+        k = round((t - times[0]) / step)
+        return truth[k] if 0 <= k < len(truth) else None
+
     start = 0.8 * truth[-1]["t"]
     final, registration, control, vector = [], [], [], [0.0, 0.0, 0.0]
     # the first time the patient's needle is in the skin (phase >= 1) and in the liver (2)
@@ -71,24 +87,32 @@ def budget(direct_csv, inverse_csv):
         d = by_time[t]
         target = [d[k] for k in xyz("target")]
         model_target = [m[k] for k in xyz("model_target")]
-        registered = 1e3 * math.dist(model_target, target)
-        for i, when in enumerate(punctures):
-            if when is not None and t < when:
-                before[i] = registered
+        # the true target where the model's target is meant to be: at t, or at t + horizon
+        ahead = d
+        if m.get("predicted", 0) == 1 and m.get("horizon", 0) > 0:
+            ahead = truth_at(t + m["horizon"])
+        registered = None
+        if ahead is not None:
+            target_then = [ahead[k] for k in xyz("target")]
+            registered = 1e3 * math.dist(model_target, target_then)
+            for i, when in enumerate(punctures):
+                if when is not None and t < when:
+                    before[i] = registered
         if t < start:
             continue
         tip = [d[k] for k in xyz("tip")]
         model_tip = [m[k] for k in xyz("model_tip")]
         final.append(1e3 * math.dist(target, tip))
-        registration.append(registered)
         control.append(1e3 * math.dist(model_target, model_tip))
-        for i in range(3):
-            vector[i] += 1e3 * (model_target[i] - target[i])
-    if not final:
+        if registered is not None:
+            registration.append(registered)
+            for i in range(3):
+                vector[i] += 1e3 * (model_target[i] - target_then[i])
+    if not final or not registration:
         fail("%s and %s: no answered frame in the last 20 %% of the run" % (direct_csv, inverse_csv))
-    n = len(final)
+    n = len(registration)
     mean = lambda v: sum(v) / len(v)
-    return mean(final), mean(registration), mean(control), [v / n for v in vector], n, before
+    return mean(final), mean(registration), mean(control), [v / n for v in vector], len(final), before
 
 
 def mm(value):

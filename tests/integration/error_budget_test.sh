@@ -2,7 +2,8 @@
 # scripts/error_budget.py on two synthetic runs whose shares are known by construction: the true
 # target fixed, the true tip 0.3 mm from it, the model's target offset from the true one by an
 # amount that changes at the skin's and the liver's punctures, the model's tip on the true tip.
-# Checks the window's shares, the registration before each puncture, the mean over runs (a run
+# A third run is registered to predicted markers (compared at t + horizon). Checks the window's
+# shares, the registration before each puncture, the mean over runs (a run
 # that never reaches the liver is left out of that stage's mean), and bad input (exit 2 naming
 # the file and the column).
 # Usage: error_budget_test.sh SOURCE_DIR
@@ -54,6 +55,29 @@ mean="$(echo "$out" | grep '^mean over 2 runs:')"
   || fail "run b: $line_b"
 [[ "$mean" == "mean over 2 runs: final 0.300 mm, registration 0.300 mm, control "*"; registration before the skin's puncture 0.001 mm, before the liver's 0.100 mm" ]] \
   || fail "mean: $mean"
+
+# a run registered to predicted markers: the true target moves along x at 10 mm/s, the model's
+# target is where it will be 0.1 s later (predicted 1, horizon 0.1): its registration error is
+# 0 when compared at t + horizon (1 mm if it were compared at t); the last 0.1 s has no future
+# frame and is left out of the registration, not of the final error
+mkdir -p "$work/c/direct" "$work/c/inverse"
+/usr/bin/python3 - "$work/c" <<'PY'
+import sys
+d = sys.argv[1]
+with open(d + "/direct/timeseries.csv", "w") as f, open(d + "/inverse/inverse.csv", "w") as g:
+    f.write("t,phase,target_x,target_y,target_z,tip_x,tip_y,tip_z\n")
+    g.write("answers_seq,sim_time,valid,model_tip_x,model_tip_y,model_tip_z,"
+            "model_target_x,model_target_y,model_target_z,predicted,horizon\n")
+    for k in range(1, 501):
+        t = round(0.02 * k, 2)
+        f.write("%.2f,2,%.9f,0.02,0.03,%.9f,0.02,0.0303\n" % (t, 0.01 * t, 0.01 * t))
+        g.write("%d,%.2f,1,%.9f,0.02,0.0303,%.9f,0.02,0.03,1,0.1\n"
+                % (k, t, 0.01 * (t + 0.1), 0.01 * (t + 0.1)))
+PY
+line_c="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/c")" || fail "predicted run: exit $?"
+echo "$line_c"
+[[ "$line_c" == *"final 0.300 mm = registration 0.000 mm (model - true: +0.000 +0.000 +0.000 mm), control 0.300 mm; 101 frames"* ]] \
+  || fail "predicted run: $line_c"
 
 # bad input: a missing phase column, a missing file
 sed -i '1s/phase/stage/' "$work/b/direct/timeseries.csv"
