@@ -6,6 +6,7 @@
 #include "common/scenario/box_reader.h"
 #include "common/scenario/fem_reader.h"
 #include "common/scenario/needle_reader.h"
+#include "common/scenario/robot_reader.h"
 #include "common/scenario/shared_scenario.h"
 
 namespace nsim::direct_sections {
@@ -120,16 +121,12 @@ void ReadNeedle(const YamlReader& node, SceneNeedleConfig* n) {
 
 void ReadRobot(const YamlReader& node, RobotDriverConfig* r) {
   RejectKeysMovedToShared(node, "robot");
-  node.CheckKeys({"type", "max_linear_speed", "max_angular_speed", "max_linear_acceleration",
-                  "max_angular_acceleration", "workspace_min", "workspace_max"});
+  std::vector<std::string> keys = RobotLimitKeys();
+  keys.push_back("type");
+  node.CheckKeys(keys);
   const int type = node.ReadChoice("type", {"cartesian", "iiwa"});
   if (type >= 0) r->kind = type == 0 ? RobotKind::kCartesian : RobotKind::kIiwa;
-  node.Read("max_linear_speed", &r->cartesian.max_linear_speed);
-  node.Read("max_angular_speed", &r->cartesian.max_angular_speed);
-  node.Read("max_linear_acceleration", &r->cartesian.max_linear_acceleration);
-  node.Read("max_angular_acceleration", &r->cartesian.max_angular_acceleration);
-  node.Read("workspace_min", &r->cartesian.workspace_min_W);
-  node.Read("workspace_max", &r->cartesian.workspace_max_W);
+  ReadRobotLimits(node, &r->cartesian);
 }
 
 void ReadRun(const YamlReader& node, RunConfig* run) {

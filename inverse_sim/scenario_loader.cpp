@@ -13,6 +13,7 @@
 #include "common/scenario/box_reader.h"
 #include "common/scenario/fem_reader.h"
 #include "common/scenario/needle_reader.h"
+#include "common/scenario/robot_reader.h"
 #include "common/scenario/shared_scenario.h"
 #include "common/scene/scene_config.h"
 
@@ -219,8 +220,8 @@ void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScen
     pred.Read("measure_latency", &s->loop.measure_latency);
     const int preparation = pred.ReadChoice("preparation", {"none", "buffer", "exhale"});
     if (preparation >= 0) s->loop.preparation = static_cast<Preparation>(preparation);
-    const int pose = pred.ReadChoice("model_pose", {"measured", "commanded"});
-    if (pose >= 0) s->loop.model_pose_commanded = pose == 1;
+    const int pose = pred.ReadChoice("model_pose", {"measured", "commanded", "expected"});
+    if (pose >= 0) s->loop.model_pose = static_cast<ModelPose>(pose);
     pred.Read("enabled", &s->loop.prediction_enabled);
     std::string filter;
     if (pred.Read("filter", &filter)) s->loop.prediction.filter = ParsePredictionFilter(filter);
@@ -280,6 +281,9 @@ InverseScenario LoadInverseScenario(const std::string& path) {
   ReadInverse(root.Child("inverse"), root, path, &s);
   ReadController(root.Child("controller"), path, &s);
   ReadPrediction(root.OptionalChild("prediction"), path, &s);
+  // the robot's limits: where the commands in flight take it (prediction.model_pose: expected)
+  if (root.Has("robot")) ReadRobotLimits(root.Child("robot"), &s.loop.robot.cartesian);
+  ValidateAs([&] { s.loop.robot.cartesian.Validate(); }, path, "", "");
   ReadDds(root.OptionalChild("dds"), &s);
   ReadRunMode(root.OptionalChild("run"), &s);
   return s;

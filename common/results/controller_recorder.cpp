@@ -121,7 +121,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
                                                                     : "exhale"},
             {"prediction_displacement", c.prediction_displacement},
             {"prediction_shrink", c.prediction_shrink},
-            {"model_pose", c.model_pose_commanded ? "commanded" : "measured"},
+            {"model_pose", ModelPoseName(c.model_pose)},
             {"localization_delay_s", c.horizon.localization_delay},
             {"young_modulus_factor", c.model.young_modulus_factor},
             {"model_needle",

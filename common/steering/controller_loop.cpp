@@ -10,14 +10,25 @@ namespace {
 
 constexpr size_t kFrameTimesKept = 1024;  // frames whose time a delay can be measured against
 constexpr size_t kRecentDelays = 10;      // the horizon uses the median of the last delays
+constexpr size_t kInFlightKept = 256;     // commands kept while the robot has not executed them
 
 }  // namespace
+
+const char* ModelPoseName(ModelPose pose) {
+  switch (pose) {
+    case ModelPose::kMeasured: return "measured";
+    case ModelPose::kCommanded: return "commanded";
+    case ModelPose::kExpected: return "expected";
+  }
+  return "?";
+}
 
 ControllerLoop::ControllerLoop(const ControllerLoopConfig& config, TetMesh mesh)
     : config_(config),
       mesh_(std::move(mesh)),
       horizon_(config.horizon),
-      predictor_score_(config.prediction.pca_window) {
+      predictor_score_(config.prediction.pca_window),
+      forecast_(config.robot) {
   config_.model.Validate();
   config_.path.Validate();
   config_.control.Validate();
@@ -56,6 +67,14 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
     Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
     return false;
   }
+  if (frame.has_robot) {
+    try {
+      forecast_.Observe(frame.stamp.sim_time, frame.X_WE, frame.q);
+    } catch (const InputError& e) {
+      Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
+      return false;
+    }
+  }
   score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
   predictor_score_.AddMeasurement(frame.stamp.sim_time, frame.p_WM);
   if (exhale_gate_ && !exhale_entered_) {  // the gated start: the first exhale rest once the
@@ -83,9 +102,12 @@ void ControllerLoop::MeasureLatency(const SensorFrame& frame) {
     // the robot held still: the commands it held through did not take effect
     if (obeyed_) last_target_.reset();
     obeyed_ = false;
+    in_flight_.clear();
     return;
   }
   obeyed_ = true;
+  while (!in_flight_.empty() && in_flight_.front().answers_seq <= frame.applied_seq)
+    in_flight_.pop_front();
   for (auto it = frame_times_.rbegin(); it != frame_times_.rend(); ++it) {
     if (it->first != frame.applied_seq) continue;
     const double delay = frame.stamp.sim_time - it->second;
@@ -107,6 +129,7 @@ double ControllerLoop::CalcHorizon(double t) {
   const double measured = Median({recent_delays_.begin(), recent_delays_.end()});
   const double horizon = configured + std::max(0.0, measured - loop);
   // the delay spans the loop period and d frames of latency ((d + 1) periods in lockstep)
+  if (loop > 0) frame_period_ = loop;
   if (loop > 0) latency_steps_ = std::max(0, static_cast<int>(std::lround(measured / loop)) - 1);
   if (config_.search_lead_auto && predictor_ && loop > 0) {
     const int lead = std::max(1, static_cast<int>(std::lround(horizon / loop)));
@@ -122,6 +145,30 @@ void ControllerLoop::SetCommanded(SteeringInput* input) const {
     input->q_commanded = Eigen::Map<const Vector7d>(last_target_->q.data());
   else if (last_target_->mode == TargetMode::kCartesian)
     input->X_WE_commanded = last_target_->X_WE;
+}
+
+void ControllerLoop::SetModelPose(SteeringInput* input) const {
+  if (config_.model_pose == ModelPose::kMeasured) return;
+  const bool joints = input->q_commanded.has_value();
+  if (!joints && !input->X_WE_commanded) return;  // nothing in flight, or the robot held
+  if (config_.model_pose == ModelPose::kCommanded || !forecast_.has_state() ||
+      !(frame_period_ > 0.0)) {
+    if (joints) input->q = *input->q_commanded;
+    else input->X_WE = *input->X_WE_commanded;
+    return;
+  }
+  if (joints) {
+    std::vector<Vector7d> commands;
+    for (const RobotTarget& t : in_flight_)
+      if (t.mode == TargetMode::kJoint && t.q.size() == 7)
+        commands.push_back(Eigen::Map<const Vector7d>(t.q.data()));
+    input->q = forecast_.ForecastJoints(commands, frame_period_);
+  } else {
+    std::vector<Eigen::Isometry3d> commands;
+    for (const RobotTarget& t : in_flight_)
+      if (t.mode == TargetMode::kCartesian) commands.push_back(t.X_WE);
+    input->X_WE = forecast_.ForecastPose(commands, frame_period_);
+  }
 }
 
 void ControllerLoop::Observe(const SensorFrame& frame) { Accept(frame); }
@@ -202,10 +249,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
       }
       score_.AddPrediction(t + r.horizon, input.p_WM, frame.p_WM);
       // the needle where the robot will be when the markers are where they are predicted
-      if (config_.model_pose_commanded) {
-        if (input.X_WE_commanded) input.X_WE = *input.X_WE_commanded;
-        if (input.q_commanded) input.q = *input.q_commanded;
-      }
+      SetModelPose(&input);
     } else {
       input.p_WM = frame.p_WM;
     }
@@ -261,6 +305,8 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   target.answers_seq = frame.stamp.seq;
   target.bevel_angle = frame.bevel_angle;
   last_target_ = target;
+  in_flight_.push_back(target);
+  if (in_flight_.size() > kInFlightKept) in_flight_.pop_front();
   return target;
 }
 

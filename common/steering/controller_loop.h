@@ -33,6 +33,7 @@
 #include "common/prediction/horizon_estimator.h"
 #include "common/prediction/marker_predictor.h"
 #include "common/prediction/prediction_score.h"
+#include "common/robot/motion_forecast.h"
 #include "common/steering/steering_config.h"
 #include "common/steering/steering_controller.h"
 
@@ -40,6 +41,13 @@ namespace nsim {
 
 /// When the insertion starts (ControllerLoopConfig::preparation).
 enum class Preparation { kNone, kBuffer, kExhale };
+
+/// Where the model's needle is while it registers to predicted markers
+/// (ControllerLoopConfig::model_pose).
+enum class ModelPose { kMeasured, kCommanded, kExpected };
+
+/// The scenario's name of a ModelPose: "measured", "commanded", "expected".
+const char* ModelPoseName(ModelPose pose);
 
 /// Everything the controller loop is made of.
 struct ControllerLoopConfig {
@@ -75,14 +83,21 @@ struct ControllerLoopConfig {
   /// Algorithm 1 scores 1 frame ahead; a window chosen for 1 frame and used 6 frames ahead gave
   /// marker nRMS of 450 % at a 100 ms latency).
   bool search_lead_auto = true;
-  /// prediction.model_pose `commanded`: when the model registers to markers predicted over the
-  /// horizon (the loop's latency) and a command is in flight (control.compensate_in_flight),
-  /// the model's needle is put at the last commanded pose, where the robot will be when the
-  /// predicted markers are reached, instead of the measured one (`measured`): the model then
-  /// simulates one instant, the markers and the needle both at t + horizon, and the law's
-  /// in-flight motion is zero. Without prediction (or before the predictor is ready, or when
-  /// the robot held its last command) the model uses the measured pose either way.
-  bool model_pose_commanded = false;
+  /// prediction.model_pose: where the model's needle is when the model registers to markers
+  /// predicted over the horizon (the loop's latency) and commands are in flight
+  /// (control.compensate_in_flight). kMeasured: at the measured pose. kCommanded: at the last
+  /// commanded pose, where the robot will be when the predicted markers are reached if it
+  /// follows each command within a step. kExpected: where the robot will be after executing the
+  /// commands in flight, forecast by its own motion law under its speed and acceleration limits
+  /// (`robot`, MotionForecast) from the measured state: the commanded pose for a robot that
+  /// keeps up, and behind it when the commands jump faster than the robot can follow. With
+  /// kCommanded and kExpected the model simulates one instant, the markers and the needle both
+  /// at t + horizon. Without prediction (or before the predictor is ready, or when the robot
+  /// held its last command) the model uses the measured pose either way.
+  ModelPose model_pose = ModelPose::kMeasured;
+  /// The robot's limits for ModelPose::kExpected (the scenario's `robot` section; the iiwa's
+  /// joint limits are its data sheet's).
+  MotionForecastConfig robot;
   /// prediction.preparation: when the insertion starts. kNone: at the first frame (the
   /// predictor joins when its buffer is full). kBuffer (thesis §4.1, fig. 4.1: "some cycles of
   /// the patient respiration are observed right before the needle insertion"): the robot is
@@ -194,6 +209,8 @@ class ControllerLoop {
   double CalcHorizon(double t);
   // the commands in flight for the law (none when the robot stopped obeying)
   void SetCommanded(SteeringInput* input) const;
+  // the model's needle pose while it registers to predicted markers (config_.model_pose)
+  void SetModelPose(SteeringInput* input) const;
 
   ControllerLoopConfig config_;
   TetMesh mesh_;
@@ -222,6 +239,9 @@ class ControllerLoop {
   std::deque<double> recent_delays_;                     // the last measured delays (s)
   std::vector<double> delays_;
   std::optional<RobotTarget> last_target_;  // the last command sent
+  std::deque<RobotTarget> in_flight_;       // the commands sent and not yet executed, in order
+  MotionForecast forecast_;                 // the robot's motion from its measured states
+  double frame_period_ = 0.0;               // the loop time of eq. 4.8-4.9 (s), 0 = not yet
   bool obeyed_ = false;                     // the robot executed one of our commands
   int search_lead_ = 0;
   int latency_steps_ = 0;  // the measured latency in frames (CalcHorizon), 0 = not yet

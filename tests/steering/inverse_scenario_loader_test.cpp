@@ -96,7 +96,7 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   const InverseScenario plain = Load(DefaultText());
   EXPECT_FALSE(plain.loop.model.tip_ramp);
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
-  EXPECT_TRUE(plain.loop.model_pose_commanded);             // the default scenario's
+  EXPECT_EQ(plain.loop.model_pose, ModelPose::kCommanded);  // the default scenario's
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
@@ -107,7 +107,7 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   const InverseScenario s = Load(text);
   EXPECT_TRUE(s.loop.model.tip_ramp);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
-  EXPECT_FALSE(s.loop.model_pose_commanded);
+  EXPECT_EQ(s.loop.model_pose, ModelPose::kMeasured);
   EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);
   EXPECT_FALSE(s.loop.prediction_shrink);
   const std::string preparation = LoadError(
@@ -126,9 +126,28 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
       << friction;
   const std::string pose = LoadError(
       Edited(DefaultText(), "  model_pose: commanded ", "  model_pose: future "));
-  EXPECT_NE(pose.find("prediction.model_pose: expected one of measured, commanded, got 'future'"),
+  EXPECT_NE(pose.find("prediction.model_pose: expected one of measured, commanded, expected, got 'future'"),
             std::string::npos)
       << pose;
+  EXPECT_EQ(Load(Edited(DefaultText(), "  model_pose: commanded ", "  model_pose: expected "))
+                .loop.model_pose,
+            ModelPose::kExpected);
+}
+
+// the robot's limits, for the forecast of where the commands in flight take it: the scenario's
+// robot section, and a bad value refused by its key
+TEST(InverseScenarioLoaderTest, ReadsTheRobotsLimits) {
+  const InverseScenario plain = Load(DefaultText());
+  EXPECT_EQ(plain.loop.robot.cartesian.max_linear_acceleration, 0.5);
+  EXPECT_EQ(plain.loop.robot.cartesian.max_angular_speed, 0.5);
+  const InverseScenario s = Load(Edited(DefaultText(), "  max_linear_acceleration: 0.5\n",
+                                        "  max_linear_acceleration: 0.25\n"));
+  EXPECT_EQ(s.loop.robot.cartesian.max_linear_acceleration, 0.25);
+  const std::string bad = LoadError(Edited(DefaultText(), "  max_linear_acceleration: 0.5\n",
+                                           "  max_linear_acceleration: -1\n"));
+  EXPECT_NE(bad.find("robot.max_linear_acceleration must be > 0 (m/s^2), got -1"),
+            std::string::npos)
+      << bad;
 }
 
 TEST(InverseScenarioLoaderTest, BevelIsOffByDefault) {
