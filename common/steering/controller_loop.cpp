@@ -67,7 +67,7 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
     Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
     return false;
   }
-  if (frame.has_robot) {
+  if (frame.has_robot && config_.model_pose == ModelPose::kExpected) {  // the forecast's state
     try {
       forecast_.Observe(frame.stamp.sim_time, frame.X_WE, frame.q);
     } catch (const InputError& e) {
@@ -305,8 +305,10 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   target.answers_seq = frame.stamp.seq;
   target.bevel_angle = frame.bevel_angle;
   last_target_ = target;
-  in_flight_.push_back(target);
-  if (in_flight_.size() > kInFlightKept) in_flight_.pop_front();
+  if (config_.model_pose == ModelPose::kExpected) {  // only the forecast needs them
+    in_flight_.push_back(target);
+    if (in_flight_.size() > kInFlightKept) in_flight_.pop_front();
+  }
   return target;
 }
 

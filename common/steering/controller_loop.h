@@ -239,8 +239,10 @@ class ControllerLoop {
   std::deque<double> recent_delays_;                     // the last measured delays (s)
   std::vector<double> delays_;
   std::optional<RobotTarget> last_target_;  // the last command sent
-  std::deque<RobotTarget> in_flight_;       // the commands sent and not yet executed, in order
-  MotionForecast forecast_;                 // the robot's motion from its measured states
+  // ModelPose::kExpected only: the commands sent and not yet executed, in order, and the
+  // robot's motion from its measured states (neither is kept for the other poses)
+  std::deque<RobotTarget> in_flight_;
+  MotionForecast forecast_;
   double frame_period_ = 0.0;               // the loop time of eq. 4.8-4.9 (s), 0 = not yet
   bool obeyed_ = false;                     // the robot executed one of our commands
   int search_lead_ = 0;
