@@ -16,6 +16,7 @@
 #include "common/fem/cholmod_factor.h"
 #include "common/fem/fork_join.h"
 #include "common/fem/single_precision_factor.h"
+#include "common/fem/warm_start.h"
 #include "common/fem/worker_gate.h"
 
 namespace nsim {
@@ -326,17 +327,18 @@ struct FemSolver::Impl {
   // directions); so no Multiply checks it at the end (FemSolverTest.FastPathAgreesWithDirectPath
   // measures the true one). Only a solve that ran out of iterations gets its true residual,
   // for the caller's fallback.
-  int Pcg(const Eigen::VectorXd& rhs, Eigen::VectorXd& x, double& relative_residual) {
+  int Pcg(const Eigen::VectorXd& rhs, Eigen::VectorXd& x, double& relative_residual,
+          double& initial_residual) {
     const double rhs_norm = rhs.norm();
     if (!(rhs_norm > 0.0)) {
       x.setZero();
-      relative_residual = 0.0;
+      relative_residual = initial_residual = 0.0;
       return 0;
     }
     const double tolerance = config.cg_relative_tolerance;
     Multiply(x, ap);
     r = rhs - ap;
-    relative_residual = r.norm() / rhs_norm;
+    relative_residual = initial_residual = r.norm() / rhs_norm;
     if (relative_residual <= tolerance) return 0;
     ApplyPreconditioner(r, z);
     p = z;
@@ -505,8 +507,8 @@ struct FemSolver::Impl {
       for (Eigen::Index c = 0; c < k; ++c) {
         b = multi_in.col(c);
         dv.setZero();
-        double residual = 0.0;
-        Pcg(b, dv, residual);
+        double residual = 0.0, initial = 0.0;
+        Pcg(b, dv, residual, initial);
         NSIM_CHECK(residual <= config.cg_relative_tolerance,
                    "PCG for A^-1 column did not converge: relative residual ", residual);
         multi_out.col(c) = dv;
@@ -610,9 +612,10 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     const int i = free_nodes[k];
     s.b.segment<3>(3 * k) = s.h * state.forces.col(i) - s.h * alpha * mass[i] * state.v.col(i) -
                             s.stiffness_scale * s.full_out.col(i);
-    // warm start: dv extrapolated linearly from the two previous steps (measured on the
-    // breathing liver: the initial residual drops ~8x, PCG needs 2 iterations instead of 3)
-    s.dv.segment<3>(3 * k) = 2.0 * state.dv_free.col(i) - state.dv_free_previous.col(i);
+    // warm start: dv extrapolated from the previous steps (warm_start.h)
+    s.dv.segment<3>(3 * k) =
+        ExtrapolateWarmStart(state.warm_start_order, state.dv_free.col(i),
+                             state.dv_free_previous.col(i), state.dv_free_before_previous.col(i));
   }
 
   // solve A_ff dv_f = b_f
@@ -627,7 +630,8 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
   } else {
     stats_.factor_swapped = s.AdoptBackgroundFactor(stats_.waited_for_worker, stats_.adoption_lag);
     s.UpdateNodalRotations();
-    stats_.cg_iterations = s.Pcg(s.b, s.dv, stats_.relative_residual);
+    stats_.cg_iterations =
+        s.Pcg(s.b, s.dv, stats_.relative_residual, stats_.initial_residual);
     if (stats_.relative_residual > model.get_config().cg_relative_tolerance) {
       // never truncated: solve with a fresh factor of this step's A (an older one in flight
       // is dropped)
@@ -649,7 +653,15 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     stats_.slice_wait = s.GiveSliceToWorker();
   }
 
-  // free motion
+  // free motion; the next warm start's order from how each would have predicted this one
+  WarmStartErrors errors;
+  for (int k = 0; k < s.num_free; ++k) {
+    const int i = free_nodes[k];
+    errors.Add(s.dv.segment<3>(3 * k), state.dv_free.col(i), state.dv_free_previous.col(i),
+               state.dv_free_before_previous.col(i));
+  }
+  state.warm_start_order = errors.ChooseOrder();
+  state.dv_free_before_previous.swap(state.dv_free_previous);
   state.dv_free_previous = state.dv_free;
   for (int i = 0; i < n; ++i) state.dv_free.col(i) = s.full_w.col(i) - state.v.col(i);
   for (int k = 0; k < s.num_free; ++k) state.dv_free.col(free_nodes[k]) = s.dv.segment<3>(3 * k);

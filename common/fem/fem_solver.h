@@ -109,6 +109,8 @@ struct FemStepStats {
   /// ||b - A dv|| / ||b|| of the free-motion solve: PCG's recursive residual (the true one up to
   /// round-off; the true one when PCG ran out of iterations, and on the direct path)
   double relative_residual = 0;
+  /// ||b - A dv_0|| / ||b|| of the warm start dv_0 the PCG began from (0 on the direct path)
+  double initial_residual = 0;
   bool refactorized = false;      ///< a numeric factorization ran on this thread in this step
   bool factor_swapped = false;    ///< a background factorization was adopted at this step
   bool refresh_requested = false;  ///< this step's A was handed to the background worker

@@ -24,6 +24,7 @@ FemState::FemState(const FemModel& model) {
   rotations.assign(model.num_tets(), Eigen::Matrix3d::Identity());
   dv_free = Eigen::Matrix3Xd::Zero(3, n);
   dv_free_previous = Eigen::Matrix3Xd::Zero(3, n);
+  dv_free_before_previous = Eigen::Matrix3Xd::Zero(3, n);
   x_free = x;
   forces = Eigen::Matrix3Xd::Zero(3, n);
   reaction_forces = Eigen::Matrix3Xd::Zero(3, static_cast<int>(model.get_dirichlet_nodes().size()));

@@ -30,9 +30,14 @@ struct FemState {
   /// Free-motion velocity change dv_free (m/s), 3 x #nodes, written by FemSolver::BeginStep;
   /// Dirichlet columns hold their prescribed dv.
   Eigen::Matrix3Xd dv_free;
-  /// dv_free of the step before (m/s), 3 x #nodes: with dv_free, the solver's warm start
-  /// 2 dv_free - dv_free_previous for the next step (zero at rest).
+  /// dv_free of the step before (m/s), 3 x #nodes (zero at rest).
   Eigen::Matrix3Xd dv_free_previous;
+  /// dv_free of the step before that (m/s), 3 x #nodes (zero at rest).
+  Eigen::Matrix3Xd dv_free_before_previous;
+  /// The next step's PCG warm start is the polynomial of this order through dv_free,
+  /// dv_free_previous and dv_free_before_previous (1 constant, 2 line, 3 parabola;
+  /// common/fem/warm_start.h): the one that would have predicted the last dv_free best.
+  int warm_start_order = 1;
   /// Free-motion positions x + h (v + dv_free) (m), 3 x #nodes, written by BeginStep.
   Eigen::Matrix3Xd x_free;
   /// Forces at the start of the step (N), 3 x #nodes: elastic + gravity + external_forces.
