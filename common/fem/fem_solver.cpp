@@ -56,6 +56,7 @@ struct FemSolver::Impl {
 
   // scratch, preallocated
   Eigen::Matrix3Xd full_in, full_out, full_w;  // full_in: Dirichlet columns always zero
+  Eigen::Matrix3Xd velocity_change;  // this step's change of the free end velocity
   Eigen::Matrix3Xd full_sum;                   // dv + v in CommitStep
   Eigen::VectorXd b, dv, r, z, p, ap, tmp;
   Eigen::MatrixXd multi_in, multi_out, multi_rotated;
@@ -612,10 +613,13 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     const int i = free_nodes[k];
     s.b.segment<3>(3 * k) = s.h * state.forces.col(i) - s.h * alpha * mass[i] * state.v.col(i) -
                             s.stiffness_scale * s.full_out.col(i);
-    // warm start: dv extrapolated from the previous steps (warm_start.h)
+    // warm start: the free end velocity extrapolated from the previous steps (warm_start.h),
+    // minus v (which carries the last correction: a contact's impulse is not extrapolated)
+    const auto& changes = state.free_velocity_changes;
     s.dv.segment<3>(3 * k) =
-        ExtrapolateWarmStart(state.warm_start_order, state.dv_free.col(i),
-                             state.dv_free_previous.col(i), state.dv_free_before_previous.col(i));
+        state.free_velocity.col(i) - state.v.col(i) +
+        ExtrapolateWarmStart(state.warm_start_order, changes[0].col(i), changes[1].col(i),
+                             changes[2].col(i));
   }
 
   // solve A_ff dv_f = b_f
@@ -653,18 +657,23 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     stats_.slice_wait = s.GiveSliceToWorker();
   }
 
-  // free motion; the next warm start's order from how each would have predicted this one
+  // free motion
+  for (int i = 0; i < n; ++i) state.dv_free.col(i) = s.full_w.col(i) - state.v.col(i);
+  for (int k = 0; k < s.num_free; ++k) state.dv_free.col(free_nodes[k]) = s.dv.segment<3>(3 * k);
+  // the warm start's history: this step's change of the free end velocity, and the order
+  // that would have predicted it best
+  auto& changes = state.free_velocity_changes;
+  s.velocity_change = state.v + state.dv_free - state.free_velocity;
   WarmStartErrors errors;
   for (int k = 0; k < s.num_free; ++k) {
     const int i = free_nodes[k];
-    errors.Add(s.dv.segment<3>(3 * k), state.dv_free.col(i), state.dv_free_previous.col(i),
-               state.dv_free_before_previous.col(i));
+    errors.Add(s.velocity_change.col(i), changes[0].col(i), changes[1].col(i), changes[2].col(i));
   }
   state.warm_start_order = errors.ChooseOrder();
-  state.dv_free_before_previous.swap(state.dv_free_previous);
-  state.dv_free_previous = state.dv_free;
-  for (int i = 0; i < n; ++i) state.dv_free.col(i) = s.full_w.col(i) - state.v.col(i);
-  for (int k = 0; k < s.num_free; ++k) state.dv_free.col(free_nodes[k]) = s.dv.segment<3>(3 * k);
+  state.free_velocity += s.velocity_change;
+  changes[2].swap(changes[1]);
+  changes[1].swap(changes[0]);
+  changes[0].swap(s.velocity_change);
   state.x_free = state.x + s.h * (state.v + state.dv_free);
   return stats_;
 }

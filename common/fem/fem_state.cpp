@@ -23,8 +23,8 @@ FemState::FemState(const FemModel& model) {
     prescribed_positions.col(k) = model.get_rest_positions().col(prescribed[k]);
   rotations.assign(model.num_tets(), Eigen::Matrix3d::Identity());
   dv_free = Eigen::Matrix3Xd::Zero(3, n);
-  dv_free_previous = Eigen::Matrix3Xd::Zero(3, n);
-  dv_free_before_previous = Eigen::Matrix3Xd::Zero(3, n);
+  free_velocity = Eigen::Matrix3Xd::Zero(3, n);
+  for (auto& change : free_velocity_changes) change = Eigen::Matrix3Xd::Zero(3, n);
   x_free = x;
   forces = Eigen::Matrix3Xd::Zero(3, n);
   reaction_forces = Eigen::Matrix3Xd::Zero(3, static_cast<int>(model.get_dirichlet_nodes().size()));

@@ -5,6 +5,7 @@
 // effects on the original.
 
 #include <Eigen/Core>
+#include <array>
 #include <vector>
 
 #include "common/fem/fem_model.h"
@@ -30,13 +31,14 @@ struct FemState {
   /// Free-motion velocity change dv_free (m/s), 3 x #nodes, written by FemSolver::BeginStep;
   /// Dirichlet columns hold their prescribed dv.
   Eigen::Matrix3Xd dv_free;
-  /// dv_free of the step before (m/s), 3 x #nodes (zero at rest).
-  Eigen::Matrix3Xd dv_free_previous;
-  /// dv_free of the step before that (m/s), 3 x #nodes (zero at rest).
-  Eigen::Matrix3Xd dv_free_before_previous;
-  /// The next step's PCG warm start is the polynomial of this order through dv_free,
-  /// dv_free_previous and dv_free_before_previous (1 constant, 2 line, 3 parabola;
-  /// common/fem/warm_start.h): the one that would have predicted the last dv_free best.
+  /// The free motion's end velocity v + dv_free of the last step (m/s), 3 x #nodes (zero at
+  /// rest), and its changes from step to step, newest first (the last three; zero at rest).
+  /// The next step's PCG warm start predicts the free end velocity from them, by the
+  /// polynomial of order warm_start_order (1 constant, 2 line, 3 parabola: the one that
+  /// predicted the last change best; common/fem/warm_start.h), and starts from that minus the
+  /// step's v, which includes the constraints' correction of the step before.
+  Eigen::Matrix3Xd free_velocity;
+  std::array<Eigen::Matrix3Xd, 3> free_velocity_changes;
   int warm_start_order = 1;
   /// Free-motion positions x + h (v + dv_free) (m), 3 x #nodes, written by BeginStep.
   Eigen::Matrix3Xd x_free;

@@ -1,16 +1,19 @@
 #pragma once
-// The initial guess of the free-motion PCG solve: the polynomial in time through the last one,
-// two or three free-motion solutions (constant, line, parabola), of the order that would have
-// predicted the latest solution best. On smooth motion (breathing) the parabola wins, by 10x
-// over the line once transients have died out; at a jump or in an underdamped oscillation from
-// step to step the lower orders do (docs/performance.md, "The warm start: the parabola when it
-// predicts").
+// The initial guess of the free-motion PCG solve. FemSolver predicts the free motion's end
+// velocity u = v + dv_free of the next step by extrapolating its changes from step to step
+// (the constant, the line or the parabola through the last one, two or three changes, of the
+// order that would have predicted the latest change best) and starts from u - v, where v
+// already carries the constraints' last correction: a contact's impulse, which the free motion
+// of the stiff modes undoes, is not extrapolated. Without corrections (v = the last u) that is
+// the same as extrapolating dv_free itself. On smooth motion (breathing) the parabola wins, by
+// 10x over the line once transients have died out; at a start from rest or in an oscillation
+// from step to step the lower orders do (docs/performance.md, "The warm start").
 
 #include <Eigen/Core>
 
 namespace nsim {
 
-/// dv_0 = the order's extrapolation from the last solutions dv1 (newest), dv2, dv3.
+/// The order's extrapolation of the next value from the last three, dv1 (newest), dv2, dv3.
 template <typename A, typename B, typename C>
 auto ExtrapolateWarmStart(int order, const A& dv1, const B& dv2, const C& dv3) {
   using Result = decltype((3.0 * (dv1 - dv2) + dv3).eval());
@@ -19,8 +22,8 @@ auto ExtrapolateWarmStart(int order, const A& dv1, const B& dv2, const C& dv3) {
   return Result(dv1);
 }
 
-/// Squared prediction errors of the three orders for the solution dv given the history before
-/// it, accumulated over a set of columns (call once per node, then ChooseWarmStartOrder).
+/// Squared prediction errors of the three orders for the value dv given the three before it,
+/// accumulated over a set of columns (Add once per node, then ChooseOrder).
 struct WarmStartErrors {
   double constant = 0.0, line = 0.0, parabola = 0.0;
 
