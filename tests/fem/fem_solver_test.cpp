@@ -307,20 +307,19 @@ TEST(FemSolverTest, WarmStartExtrapolatesTheFreeEndVelocity) {
       after_new += start;
       after_old += residual(old_predicted[old_best - 1]);
     }
-    // this step's change of u, the order that would have predicted it best, the history
+    // this step's change of u, the order that would have predicted it best (and dv_free's
+    // for the rule before), the history
+    const auto closest_order = [](const Eigen::VectorXd (&predictions)[3],
+                                  const Eigen::VectorXd& actual) {
+      int order = 1;
+      for (int k = 2; k <= 3; ++k)
+        if ((predictions[k - 1] - actual).norm() <= (predictions[order - 1] - actual).norm())
+          order = k;
+      return order;
+    };
     const Eigen::VectorXd change = v + dv - u;
-    double closest = (predicted[0] - change).norm();
-    best = 1;
-    for (int order = 2; order <= 3; ++order) {
-      const double error = (predicted[order - 1] - change).norm();
-      if (error <= closest) closest = error, best = order;
-    }
-    closest = (old_predicted[0] - dv).norm();
-    old_best = 1;
-    for (int order = 2; order <= 3; ++order) {
-      const double error = (old_predicted[order - 1] - dv).norm();
-      if (error <= closest) closest = error, old_best = order;
-    }
+    best = closest_order(predicted, change);
+    old_best = closest_order(old_predicted, dv);
     u += change;
     c2 = c1;
     c1 = c0;
