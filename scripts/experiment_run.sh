@@ -4,7 +4,8 @@
 # its runs.csv row (used again by experiments.sh when it collects the batch).
 #
 #   scripts/experiment_run.sh run --out DIR --bin BIN [--transport in_process|dds]
-#       [--latency-steps N] [--duration S] [--localization-delay S] [--timeout S]
+#       [--mode lockstep|realtime] [--latency-steps N] [--duration S] [--localization-delay S]
+#       [--timeout S]
 #       [--partition-prefix P] [--domain N]  SETTING RUN SEED E CONFIG FLAGS
 #   scripts/experiment_run.sh row DIR/SETTING/run_RUN SETTING RUN SEED E
 #
@@ -15,6 +16,9 @@
 # it: the scenario's prediction.localization_delay). in_process (the default): direct_sim run
 # --in-process, both loops in one process, no DDS. dds: inverse_sim run and direct_sim run as
 # two processes on their own partition P_SETTING_RUN, so that runs side by side do not meet.
+# --mode realtime (dds only): both loops on the wall clock, the latency whatever the machine
+# makes it (the controller measures it; --latency-steps does not apply); lockstep (default):
+# the latency of --latency-steps, simulated, results reproducible to the bit.
 # One core per run: OPENBLAS_NUM_THREADS, OMP_NUM_THREADS and OMP_THREAD_LIMIT are set to 1
 # here, so it holds whatever started the job (parallel, ssh, Slurm). Prints one progress line;
 # exits with direct_sim's exit code (0 success, 1 runtime failure, 2 bad input).
@@ -47,13 +51,14 @@ fi
 [ "${1:-}" = run ] || die "the first argument must be 'run' or 'row' (see the top of $0)"
 shift
 
-out=""; bin=""; transport=in_process; latency=1; duration=20; delay=""; timeout=600
+out=""; bin=""; transport=in_process; mode=lockstep; latency=1; duration=20; delay=""; timeout=600
 prefix="exp$$"; domain=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
     --bin) bin="$2"; shift 2 ;;
     --transport) transport="$2"; shift 2 ;;
+    --mode) mode="$2"; shift 2 ;;
     --latency-steps) latency="$2"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
     --localization-delay) delay="$2"; shift 2 ;;
@@ -67,9 +72,11 @@ done
 [ $# -eq 6 ] || die "run takes SETTING RUN SEED E CONFIG FLAGS after its options, got $# arguments"
 name="$1"; r="$2"; rseed="$3"; emod="$4"; cfg="$5"; read -ra flags <<< "$6"
 [ -n "$out" ] || die "--out is required"
+case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
+case "$mode" in lockstep|realtime) ;; *) die "--mode must be lockstep or realtime, got '$mode'" ;; esac
+[ "$mode" = lockstep ] || [ "$transport" = dds ] || die "--mode realtime needs --transport dds (in_process is lockstep only)"
 [ -x "$bin/direct_sim" ] || die "no direct_sim in --bin '$bin' (build first, or set NSIM_BUILD_DIR)"
 [ -f "$cfg" ] || die "no such scenario: $cfg"
-case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
 
 dir="$out/$name/run_$r"
 rm -rf "$dir"; mkdir -p "$dir"   # a rerun (e.g. parallel --resume-failed) starts clean
@@ -82,8 +89,9 @@ stop() {
 }
 trap stop TERM INT
 
-common=(--config "$cfg" --mode lockstep --latency-steps "$latency" --duration "$duration"
-        --seed "$rseed" --young-modulus "$emod" --no-video --quiet)
+common=(--config "$cfg" --mode "$mode" --duration "$duration" --seed "$rseed" --young-modulus "$emod"
+        --no-video --quiet)
+[ "$mode" = realtime ] || common+=(--latency-steps "$latency")
 # the controller's options: the setting's, and the localization delay unless the scenario's holds
 ctl=("${flags[@]}")
 [ -z "$delay" ] || ctl+=(--localization-delay "$delay")
@@ -94,11 +102,13 @@ if [ "$transport" = in_process ]; then
   pids=($!)
   wait "${pids[0]}" || code=$?
 else
-  # a 3 s liveliness lease: lockstep needs no fast dead-peer detection, and a shorter lease can
-  # expire on a loaded 2-core machine (measured: both sides declared the other dead at 0.5 s
-  # while a build ran)
-  dds=(--dds-config "$root/configs/dds/local.xml" --domain "$domain" --lease 3 --partition "${prefix}_${name}_$r")
-  "$bin/inverse_sim" run --config "$cfg" --out "$dir/inverse" --mode lockstep --timeout "$timeout" \
+  # a 3 s liveliness lease in lockstep, which needs no fast dead-peer detection (a shorter lease
+  # can expire on a loaded 2-core machine: measured, both sides declared the other dead at 0.5 s
+  # while a build ran); realtime: 2 s, as scripts/run.sh (the robot holds after
+  # safety.hold_timeout without targets whatever the lease)
+  lease=3; [ "$mode" = lockstep ] || lease=2
+  dds=(--dds-config "$root/configs/dds/local.xml" --domain "$domain" --lease "$lease" --partition "${prefix}_${name}_$r")
+  "$bin/inverse_sim" run --config "$cfg" --out "$dir/inverse" --mode "$mode" --timeout "$timeout" \
     "${ctl[@]}" --quiet "${dds[@]}" > "$dir/inverse.log" 2>&1 &
   ip=$!; pids=("$ip")
   timeout -s KILL "$timeout" "$bin/direct_sim" run "${common[@]}" --out "$dir/direct" "${dds[@]}" \

@@ -6,7 +6,7 @@
 # the controller's model too, and the flexible needle (patient and model).
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
-#                          [--latency-steps N[,N...]] [--gain K] [--e-spread F] [--marker-noise S]
+#                          [--latency-steps N[,N...] | --mode realtime] [--gain K] [--e-spread F] [--marker-noise S]
 #                          [--bevel] [--dof7]
 #                          [--model-bevel] [--flexible]
 #                          [--settings REGEX] [--no-build] [--transport in_process|dds] [--jobs N] [--timeout S]
@@ -30,6 +30,12 @@
 # table, with the paired prediction on - off lines of every latency; also printed) and
 # DIR/sweep.png (final error and amplitude against latency, one line per setting: prediction on
 # and off, 6-DoF and, with --dof7, 7-DoF). `--collect DIR` on a sweep folder rebuilds them.
+# --mode realtime: every run in realtime mode (both loops on the wall clock, over DDS: implies
+# --transport dds) instead of lockstep: the latency is whatever the machine makes it (the
+# controller measures it; no --latency-steps) and runs are not reproducible to the bit. Each run
+# is two processes that want a core each: --jobs defaults to one run per two cores. runs.csv's
+# loop_latency_ms (the measured frame-to-applied delay, mean) and direct_rate_hz say what the
+# runs got; table.txt adds their means, the direct step's p99 and the steps over budget.
 # --settings REGEX keeps only the settings whose names match (bash regex, anchored: e.g.
 # 'dof7_.*' for the 7-DoF cells alone, 'pred_off' for one setting); the names are pred_on,
 # pred_off, bevel_pred_on/off (--bevel), dof7_pred_on/off (--dof7), mbevel_pred_on/off
@@ -85,13 +91,13 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=26
 latency=1; gain=""; noise=""; noise_given=0; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
 model_bevel=0; flexible=0
-transport=in_process; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
+transport=in_process; transport_given=0; mode=lockstep; latency_given=0; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
 die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # the options that take a value must have one
   case "$1" in
-    --runs|--seed|--scenario|--duration|--latency-steps|--gain|--e-spread|--marker-noise|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+    --runs|--seed|--scenario|--duration|--latency-steps|--mode|--gain|--e-spread|--marker-noise|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
       [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
   esac
   case "$1" in
@@ -99,7 +105,8 @@ while [ $# -gt 0 ]; do
     --seed) seed="$2"; shift 2 ;;
     --scenario) scenario="$(realpath -m "$2")"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
-    --latency-steps) latency="$2"; shift 2 ;;
+    --latency-steps) latency="$2"; latency_given=1; shift 2 ;;
+    --mode) mode="$2"; shift 2 ;;
     --gain) gain="$2"; shift 2 ;;
     --e-spread) espread="$2"; shift 2 ;;
     --marker-noise) noise="$2"; noise_given=1; shift 2 ;;
@@ -108,7 +115,7 @@ while [ $# -gt 0 ]; do
     --model-bevel) model_bevel=1; shift ;;
     --flexible) flexible=1; shift ;;
     --settings) only="$2"; shift 2 ;;
-    --transport) transport="$2"; shift 2 ;;
+    --transport) transport="$2"; transport_given=1; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
     --timeout) timeout="$2"; shift 2 ;;
     --hosts) hosts="$2"; shift 2 ;;
@@ -138,6 +145,14 @@ fi
 [[ "$espread" =~ ^(0(\.[0-9]*)?|\.[0-9]+)$ ]] \
   || die "--e-spread must be a fraction in [0, 1), got '$espread'"
 case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
+case "$mode" in lockstep|realtime) ;; *) die "--mode must be lockstep or realtime, got '$mode'" ;; esac
+if [ "$mode" = realtime ]; then
+  [ "$latency_given" = 0 ] || die "--mode realtime measures its latency: no --latency-steps"
+  [ "$transport_given" = 0 ] || [ "$transport" = dds ] || die "--mode realtime runs over DDS: no --transport in_process"
+  transport=dds
+  # two processes a run, a core each
+  [ -n "$jobs" ] || [ -n "$hosts" ] || jobs=$(( $(nproc) / 2 > 0 ? $(nproc) / 2 : 1 ))
+fi
 [ -z "$jobs" ] || [[ "$jobs" =~ ^[1-9][0-9]*$ ]] || die "--jobs must be a positive integer, got '$jobs'"
 [[ "$timeout" =~ ^[1-9][0-9]*$ ]] || die "--timeout must be a positive integer (seconds), got '$timeout'"
 # --hosts: a comma-separated list of parallel sshlogins ([N/][user@]host[:port] or ':')
@@ -156,12 +171,12 @@ fi
 # runs.csv in the order of jobs.txt (setting, then run) whatever order the runs ended in; a run
 # without a summary (failed to start, killed by the timeout) is a row "no_summary"
 collect_batch() {  # collect_batch DIR
-  local dir="$1" e0 espread_pct bseed blatency
+  local dir="$1" e0 espread_pct bseed blatency bmode latency_text
   [[ -f "$dir/jobs.txt" && -f "$dir/batch.txt" ]] \
     || die "--collect: $dir is not a batch folder (no jobs.txt and batch.txt)"
   command -v jq > /dev/null || { echo "experiments: jq is missing: run scripts/setup.sh" >&2; exit 1; }
   meta() { awk -v k="$1" '$1 == k { print $2; exit }' "$dir/batch.txt"; }
-  e0="$(meta e0)"; bseed="$(meta seed)"; blatency="$(meta latency_steps)"
+  e0="$(meta e0)"; bseed="$(meta seed)"; blatency="$(meta latency_steps)"; bmode="$(meta mode)"
   # batches from before --e-spread have no e_spread line: they used 0.13
   espread_pct="$(awk -v f="$(meta e_spread)" 'BEGIN { printf "%g", 100 * (f == "" ? 0.13 : f) }')"
   echo "setting,run,seed,young_modulus_pa,exit,final_error_mm,final_error_amplitude_mm,min_distance_mm,direct_rate_hz,inverse_rate_hz,loop_latency_ms,nrms_mean_percent,rejected_targets" > "$dir/runs.csv"
@@ -181,8 +196,31 @@ collect_batch() {  # collect_batch DIR
             printf "%-16s %5d %12.3f +- %6.3f %12.3f +- %6.3f %12s %7d\n", s, n[s], c ? e[s] / c : 0, sd(e[s], e2[s], c),
                    c ? a[s] / c : 0, sd(a[s], a2[s], c), m[s] ? sprintf("%.1f", nr[s] / m[s]) : "-", bad[s] + 0 } }' \
     "$dir/runs.csv" > "$dir/table.txt"
+  latency_text="lockstep latency $blatency steps"
+  [ "$bmode" != realtime ] || latency_text="realtime (latency measured)"
   { echo; echo "mean +- std over runs; final error = mean true tip-to-target distance over the last 20 % of each run,"
-    echo "amplitude = its peak-to-peak; patient E uniform in $e0 Pa +-$espread_pct % (seed $bseed), lockstep latency $blatency steps"; } >> "$dir/table.txt"
+    echo "amplitude = its peak-to-peak; patient E uniform in $e0 Pa +-$espread_pct % (seed $bseed), $latency_text"; } >> "$dir/table.txt"
+  # realtime: what the runs got from the machine, per setting: the controller's measured
+  # frame-to-applied delay, direct_sim's rate and step p99 (summaries), the steps over the step
+  # budget (direct/step_times.csv)
+  if [ "$bmode" = realtime ]; then
+    local name r _ run_dir budget over
+    { echo; echo "realtime, per setting, mean over runs [min, max]: measured delay (controller, median ms),"
+      echo "direct rate (Hz), direct step p99 (ms), direct steps over the step budget"
+      while IFS=$'\t' read -r name r _; do
+        run_dir="$dir/$name/run_$r"
+        [[ -f "$run_dir/direct/summary.json" && -f "$run_dir/direct/step_times.csv" ]] || continue
+        budget=$(jq -r '1e3 * .time_step_s' "$run_dir/direct/summary.json")
+        over=$(awk -F, -v b="$budget" 'NR > 1 && $3 > b { n++ } END { print n + 0 }' "$run_dir/direct/step_times.csv")
+        jq -r --arg s "$name" --arg over "$over" --slurpfile i <(cat "$run_dir/inverse/summary.json" 2>/dev/null || echo '{}') \
+          '[$s, ($i[0].measured_loop_delay_ms.median // "nan"), .direct_rate_hz, .step_time_ms.p99, $over] | map(tostring) | join(" ")' \
+          "$run_dir/direct/summary.json"
+      done < "$dir/jobs.txt" | awk '{ if (!($1 in n)) order[++o] = $1; n[$1]++
+          for (j = 2; j <= 5; j++) { v = $j + 0; s[$1, j] += v; if (n[$1] == 1 || v < lo[$1, j]) lo[$1, j] = v; if (n[$1] == 1 || v > hi[$1, j]) hi[$1, j] = v } }
+        END { for (i = 1; i <= o; i++) { k = order[i]; printf "%-16s", k
+                for (j = 2; j <= 5; j++) printf "  %.1f [%.1f, %.1f]", s[k, j] / n[k], lo[k, j], hi[k, j]; printf "\n" } }'
+    } >> "$dir/table.txt"
+  fi
   # prediction on against off, paired by run (same seed and E): mean +- std of the differences,
   # the paired t statistic (|t| > 2.08 is significant at 5 % for 22 runs), the runs where
   # prediction was better, and the change of the mean amplitude
@@ -376,11 +414,11 @@ variant() {  # variant NAME SED-EXPRESSION...
   fi
   echo "$out/scenario_$name.yaml"
 }
-base="$(variant base -e 's|^\(  mode:\).*|\1 lockstep|')"
-grep -q "^  mode: lockstep" "$base" || die "cannot set run.mode to lockstep in $scenario (no '  mode:' line)"
+base="$(variant base -e "s|^\(  mode:\).*|\1 $mode|")"
+grep -q "^  mode: $mode" "$base" || die "cannot set run.mode to $mode in $scenario (no '  mode:' line)"
 settings=("pred_on|$base|--prediction on" "pred_off|$base|--prediction off")
 if [ "$bevel" = 1 ]; then
-  bev="$(variant bevel -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  bevel: {enabled:\) false|\1 true|')"
+  bev="$(variant bevel -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  bevel: {enabled:\) false|\1 true|')"
   grep -q "bevel: {enabled: true" "$bev" || die "cannot turn the bevel on in $scenario"
   settings+=("bevel_pred_on|$bev|--prediction on" "bevel_pred_off|$bev|--prediction off")
 fi
@@ -389,23 +427,23 @@ model_bevel_expr=(-e 's|^inverse:.*$|&\n  bevel: patient|')
 model_needle_expr=(-e 's|^inverse:.*$|&\n  needle: patient|')
 flexible_expr=(-e 's|^\(  type:\) rigid |\1 flexible |')
 if [ "$model_bevel" = 1 ]; then
-  mbev="$(variant mbevel -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
+  mbev="$(variant mbevel -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
     "${model_bevel_expr[@]}")"
   grep -q "^  bevel: patient" "$mbev" || die "cannot give the model the bevel in $scenario (no 'inverse:' line)"
   settings+=("mbevel_pred_on|$mbev|--prediction on" "mbevel_pred_off|$mbev|--prediction off")
 fi
 if [ "$flexible" = 1 ]; then
-  flex="$(variant flex -e 's|^\(  mode:\).*|\1 lockstep|' "${flexible_expr[@]}" "${model_needle_expr[@]}")"
+  flex="$(variant flex -e "s|^\(  mode:\).*|\1 $mode|" "${flexible_expr[@]}" "${model_needle_expr[@]}")"
   grep -q "^  type: flexible" "$flex" || die "cannot make the needle flexible in $scenario (no '  type: rigid' line)"
   settings+=("flex_pred_on|$flex|--prediction on" "flex_pred_off|$flex|--prediction off")
   if [ "$bevel" = 1 ]; then
-    fbev="$(variant flex_bevel -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
+    fbev="$(variant flex_bevel -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
       "${flexible_expr[@]}" "${model_needle_expr[@]}" "${model_bevel_expr[@]}")"
     settings+=("flex_bevel_pred_on|$fbev|--prediction on" "flex_bevel_pred_off|$fbev|--prediction off")
   fi
 fi
 if [ "$dof7" = 1 ]; then
-  iiwa="$(variant iiwa -e 's|^\(  mode:\).*|\1 lockstep|' -e 's|^\(  type:\) cartesian |\1 iiwa |')"
+  iiwa="$(variant iiwa -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  type:\) cartesian |\1 iiwa |')"
   grep -q "^  type: iiwa" "$iiwa" || die "cannot switch to the iiwa in $scenario"
   settings+=("dof7_pred_on|$iiwa|--prediction on --dof joint7" "dof7_pred_off|$iiwa|--prediction off --dof joint7")
 fi
@@ -423,6 +461,12 @@ h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
 # localization_delay is then a tracker's own delay, on top of the measured one)
 delay=$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')
 if awk '/^prediction:/{p=1; next} /^[^ #]/{p=0} p && /^  measure_latency: *true/{f=1} END{exit !f}' "$scenario"; then delay=""; fi
+# realtime: the scenario's localization delay, or its measurement (there is no step latency)
+if [ "$mode" = realtime ]; then
+  delay=""
+  awk '/^prediction:/{p=1; next} /^[^ #]/{p=0} p && /^  measure_latency: *true/{f=1} END{exit !f}' "$scenario" \
+    || echo "experiments: $scenario does not measure the loop latency (prediction.measure_latency): the controller predicts over its prediction.localization_delay" >&2
+fi
 # per run: breathing seed and the patient's Young's modulus, uniform in E0 (1 +- e-spread), seeded
 awk -v n="$runs" -v s="$seed" -v e0="$e0" -v f="$espread" 'BEGIN { srand(s); for (r = 0; r < n; r++)
   printf "%d %d %.1f\n", r, s + r, e0 * (1 + f * (2 * rand() - 1)) }' > "$out/draws.txt"
@@ -435,14 +479,15 @@ for s in "${settings[@]}"; do
 done > "$out/jobs.txt"
 njobs=$(wc -l < "$out/jobs.txt")
 # what --collect needs besides jobs.txt (the table's footer), and a record of the batch
-printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" e_spread "$espread" latency_steps "$latency" \
+batch_latency="$latency"; [ "$mode" = lockstep ] || batch_latency=measured
+printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" e_spread "$espread" mode "$mode" latency_steps "$batch_latency" \
   marker_noise "${noise:-scenario}" \
   duration_s "$duration" transport "$transport" timeout_s "$timeout" > "$out/batch.txt"
 
 # the one-run command shared by every job (parallel adds the job's six fields as {1}..{6},
 # a Slurm task reads them from its line of jobs.txt)
 run_cmd=("$root/scripts/experiment_run.sh" run --out "$out" --bin "$bin" --transport "$transport"
-         --latency-steps "$latency" --duration "$duration" --timeout "$timeout"
+         --mode "$mode" --latency-steps "$latency" --duration "$duration" --timeout "$timeout"
          --partition-prefix "exp$$" --domain "${NSIM_DOMAIN:-0}")
 [ -z "$delay" ] || run_cmd+=(--localization-delay "$delay")
 [ "$dry_run" = 1 ] || [ -x "$bin/direct_sim" ] || { echo "experiments: no $bin/direct_sim: build first (scripts/build.sh) or set NSIM_BUILD_DIR" >&2; exit 1; }
@@ -458,7 +503,7 @@ if [ "$slurm" = 1 ]; then
     echo "# When every task has ended: $(printf '%q' "$root/scripts/experiments.sh") --collect $(printf '%q' "$out")"
     echo "#SBATCH --job-name=nsim_experiments"
     echo "#SBATCH --array=0-$((njobs - 1))${jobs:+%$jobs}"
-    echo "#SBATCH --cpus-per-task=1"
+    echo "#SBATCH --cpus-per-task=$([ "$mode" = realtime ] && echo 2 || echo 1)"  # realtime: two processes
     echo "#SBATCH --time=$(( (timeout + 59) / 60 ))"
     echo "#SBATCH --output=$out/slurm/%A_%a.out"
     printf 'job_list=%q\n' "$out/jobs.txt"
@@ -503,7 +548,8 @@ if [ -n "$hosts" ]; then
   [ -z "$missing" ] || { echo "experiments: --hosts: a host does not see $bin, the scripts or $out at the same path:" >&2; echo "$missing" >&2; exit 1; }
 fi
 
-echo "experiments: $runs runs x ${#settings[@]} settings, lockstep (latency $latency steps), $duration s each, E0 = $e0 Pa +-$(awk -v f="$espread" 'BEGIN { printf "%g", 100 * f }') %, $transport, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
+mode_text="lockstep (latency $latency steps)"; [ "$mode" = lockstep ] || mode_text="realtime (latency measured)"
+echo "experiments: $runs runs x ${#settings[@]} settings, $mode_text, $duration s each, E0 = $e0 Pa +-$(awk -v f="$espread" 'BEGIN { printf "%g", 100 * f }') %, $transport, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
 start=$(date +%s.%N)
 pcode=0
 "${par[@]}" "$cmd" :::: "$out/jobs.txt" || pcode=$?

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # scripts/experiments.sh's batch description (--dry-run: no simulation runs): the per-run draws
-# of the breathing seed and the patient's Young's modulus, --e-spread, --marker-noise, and their
-# bad values.
+# of the breathing seed and the patient's Young's modulus, --e-spread, --marker-noise, --mode
+# realtime, and their bad values.
 # Usage: experiments_batch_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: experiments_batch_test.sh SOURCE_DIR}"
@@ -71,6 +71,32 @@ grep -qx 'marker_noise 0.0002' "$work/noisy/batch.txt" || fail "--marker-noise: 
 cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/noisy/jobs.txt") \
   || fail "--marker-noise changed the seeds or the E draws"
 refused --marker-noise -0.001 0.02 abc ''
+
+# --mode realtime: the scenarios' run.mode, DDS, the jobs' command, the same draws; refused with
+# a latency or in_process
+batch "$work/rt" --mode realtime || fail "--mode realtime: exit $? ($(cat "$work/rt.log"))"
+grep -q '^  mode: realtime' "$work/rt/scenario_base.yaml" || fail "--mode realtime: scenario_base.yaml is not realtime"
+grep -q '^  mode: lockstep' "$work/default/scenario_base.yaml" || fail "default: scenario_base.yaml is not lockstep"
+grep -qx 'mode realtime' "$work/rt/batch.txt" || fail "--mode realtime: batch.txt lacks 'mode realtime'"
+grep -qx 'transport dds' "$work/rt/batch.txt" || fail "--mode realtime: not over DDS ($(grep transport "$work/rt/batch.txt"))"
+grep -q 'experiment_run.sh run .*--mode realtime' "$work/rt.log" || fail "--mode realtime: the jobs' command does not say realtime"
+# one run refuses realtime in one process (lockstep only) before it starts anything
+if timeout 20 "$src/scripts/experiment_run.sh" run --out "$work/one" --bin /nonexistent --mode realtime \
+     pred_on 0 1 5500 "$work/rt/scenario_base.yaml" "--prediction on" > "$work/one.log" 2>&1; then
+  fail "experiment_run.sh ran realtime in_process"
+else
+  rc=$?; [ "$rc" = 2 ] && grep -q -- '--mode realtime needs --transport dds' "$work/one.log" \
+    || fail "experiment_run.sh realtime in_process: exit $rc, $(cat "$work/one.log")"
+fi
+cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/rt/jobs.txt") \
+  || fail "--mode realtime changed the seeds or the E draws"
+if batch "$work/bad" --mode realtime --latency-steps 3; then fail "--mode realtime with --latency-steps was accepted"
+else grep -q -- '--latency-steps' "$work/bad.log" || fail "--mode realtime --latency-steps: $(cat "$work/bad.log")"; fi
+rm -rf "$work/bad"
+if batch "$work/bad" --mode realtime --transport in_process; then fail "--mode realtime with in_process was accepted"
+else grep -q -- '--transport' "$work/bad.log" || fail "--mode realtime --transport in_process: $(cat "$work/bad.log")"; fi
+rm -rf "$work/bad"
+refused --mode fast ''
 
 if [ "$fails" -gt 0 ]; then echo "experiments_batch_test: $fails failure(s)" >&2; exit 1; fi
 echo "experiments_batch_test: passed"
