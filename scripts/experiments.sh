@@ -6,7 +6,8 @@
 # the controller's model too, and the flexible needle (patient and model).
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
-#                          [--latency-steps N[,N...] | --mode realtime] [--gain K] [--e-spread F] [--marker-noise S]
+#                          [--latency-steps N[,N...] | --mode realtime] [--gain K] [--e-spread F]
+#                          [--marker-noise S]
 #                          [--bevel] [--dof7]
 #                          [--model-bevel] [--flexible]
 #                          [--settings REGEX] [--no-build] [--transport in_process|dds] [--jobs N] [--timeout S]
@@ -33,9 +34,10 @@
 # --mode realtime: every run in realtime mode (both loops on the wall clock, over DDS: implies
 # --transport dds) instead of lockstep: the latency is whatever the machine makes it (the
 # controller measures it; no --latency-steps) and runs are not reproducible to the bit. Each run
-# is two processes that want a core each: --jobs defaults to one run per two cores. runs.csv's
-# loop_latency_ms (the measured frame-to-applied delay, mean) and direct_rate_hz say what the
-# runs got; table.txt adds their means, the direct step's p99 and the steps over budget.
+# is two processes that want a core each: --jobs defaults to one run per two cores. table.txt
+# adds per setting what the runs got: the controller's measured frame-to-applied delay (median),
+# direct_sim's rate, its step p99 and its steps over the step budget (runs.csv's loop_latency_ms
+# is the mean time from a frame's publication to its target's arrival at direct_sim).
 # --settings REGEX keeps only the settings whose names match (bash regex, anchored: e.g.
 # 'dof7_.*' for the 7-DoF cells alone, 'pred_off' for one setting); the names are pred_on,
 # pred_off, bevel_pred_on/off (--bevel), dof7_pred_on/off (--dof7), mbevel_pred_on/off
