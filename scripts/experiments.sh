@@ -404,6 +404,8 @@ gain_expr=()
 [ -z "$gain" ] || gain_expr=(-e "s|^\(  gains:\).*|\1 {position: $gain, angle: $gain, entry: $gain}|")
 # --marker-noise S replaces tracker.marker_noise in every variant
 [ -z "$noise" ] || gain_expr+=(-e "s|^\(  marker_noise:\) *[^ #]*|\1 $noise|")
+# and every variant runs in the batch's mode (run.mode)
+gain_expr+=(-e "s|^\(  mode:\).*|\1 $mode|")
 variant() {  # variant NAME SED-EXPRESSION...
   local name="$1"; shift
   local dir; dir="$(dirname "$scenario")"
@@ -416,11 +418,11 @@ variant() {  # variant NAME SED-EXPRESSION...
   fi
   echo "$out/scenario_$name.yaml"
 }
-base="$(variant base -e "s|^\(  mode:\).*|\1 $mode|")"
+base="$(variant base)"
 grep -q "^  mode: $mode" "$base" || die "cannot set run.mode to $mode in $scenario (no '  mode:' line)"
 settings=("pred_on|$base|--prediction on" "pred_off|$base|--prediction off")
 if [ "$bevel" = 1 ]; then
-  bev="$(variant bevel -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  bevel: {enabled:\) false|\1 true|')"
+  bev="$(variant bevel -e 's|^\(  bevel: {enabled:\) false|\1 true|')"
   grep -q "bevel: {enabled: true" "$bev" || die "cannot turn the bevel on in $scenario"
   settings+=("bevel_pred_on|$bev|--prediction on" "bevel_pred_off|$bev|--prediction off")
 fi
@@ -429,23 +431,23 @@ model_bevel_expr=(-e 's|^inverse:.*$|&\n  bevel: patient|')
 model_needle_expr=(-e 's|^inverse:.*$|&\n  needle: patient|')
 flexible_expr=(-e 's|^\(  type:\) rigid |\1 flexible |')
 if [ "$model_bevel" = 1 ]; then
-  mbev="$(variant mbevel -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
+  mbev="$(variant mbevel -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
     "${model_bevel_expr[@]}")"
   grep -q "^  bevel: patient" "$mbev" || die "cannot give the model the bevel in $scenario (no 'inverse:' line)"
   settings+=("mbevel_pred_on|$mbev|--prediction on" "mbevel_pred_off|$mbev|--prediction off")
 fi
 if [ "$flexible" = 1 ]; then
-  flex="$(variant flex -e "s|^\(  mode:\).*|\1 $mode|" "${flexible_expr[@]}" "${model_needle_expr[@]}")"
+  flex="$(variant flex "${flexible_expr[@]}" "${model_needle_expr[@]}")"
   grep -q "^  type: flexible" "$flex" || die "cannot make the needle flexible in $scenario (no '  type: rigid' line)"
   settings+=("flex_pred_on|$flex|--prediction on" "flex_pred_off|$flex|--prediction off")
   if [ "$bevel" = 1 ]; then
-    fbev="$(variant flex_bevel -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
+    fbev="$(variant flex_bevel -e 's|^\(  bevel: {enabled:\) false|\1 true|' \
       "${flexible_expr[@]}" "${model_needle_expr[@]}" "${model_bevel_expr[@]}")"
     settings+=("flex_bevel_pred_on|$fbev|--prediction on" "flex_bevel_pred_off|$fbev|--prediction off")
   fi
 fi
 if [ "$dof7" = 1 ]; then
-  iiwa="$(variant iiwa -e "s|^\(  mode:\).*|\1 $mode|" -e 's|^\(  type:\) cartesian |\1 iiwa |')"
+  iiwa="$(variant iiwa -e 's|^\(  type:\) cartesian |\1 iiwa |')"
   grep -q "^  type: iiwa" "$iiwa" || die "cannot switch to the iiwa in $scenario"
   settings+=("dof7_pred_on|$iiwa|--prediction on --dof joint7" "dof7_pred_off|$iiwa|--prediction off --dof joint7")
 fi
@@ -461,13 +463,13 @@ h=$(awk '/^patient:/{p=1} p&&/time_step:/{print $2; exit}' "$scenario")
 # the controller's localization delay: the lockstep latency (steps x h), unless the scenario
 # has the controller measure the loop latency itself (prediction.measure_latency: true; its
 # localization_delay is then a tracker's own delay, on top of the measured one)
+# realtime has no step latency: the scenario's localization delay, or its measurement
 delay=$(awk -v n="$latency" -v h="$h" 'BEGIN{print n*h}')
-if awk '/^prediction:/{p=1; next} /^[^ #]/{p=0} p && /^  measure_latency: *true/{f=1} END{exit !f}' "$scenario"; then delay=""; fi
-# realtime: the scenario's localization delay, or its measurement (there is no step latency)
-if [ "$mode" = realtime ]; then
+if awk '/^prediction:/{p=1; next} /^[^ #]/{p=0} p && /^  measure_latency: *true/{f=1} END{exit !f}' "$scenario"; then
   delay=""
-  awk '/^prediction:/{p=1; next} /^[^ #]/{p=0} p && /^  measure_latency: *true/{f=1} END{exit !f}' "$scenario" \
-    || echo "experiments: $scenario does not measure the loop latency (prediction.measure_latency): the controller predicts over its prediction.localization_delay" >&2
+elif [ "$mode" = realtime ]; then
+  delay=""
+  echo "experiments: $scenario does not measure the loop latency (prediction.measure_latency): the controller predicts over its prediction.localization_delay" >&2
 fi
 # per run: breathing seed and the patient's Young's modulus, uniform in E0 (1 +- e-spread), seeded
 awk -v n="$runs" -v s="$seed" -v e0="$e0" -v f="$espread" 'BEGIN { srand(s); for (r = 0; r < n; r++)

@@ -44,19 +44,22 @@ awk -v e0="$e0" '
   END { if (wide == 0) { print "no default draw beyond +-5 %: not a +-13 % spread"; bad = 1 }; exit bad }' \
   "$work/all" >&2 || fail "the draws (above)"
 
+# refused_args NAMED ARGS...: a batch with ARGS exits 2 with a message that names NAMED
+refused_args() {
+  local named="$1" rc; shift
+  if batch "$work/bad" "$@"; then
+    fail "$* was accepted"
+  else
+    rc=$?
+    [ "$rc" = 2 ] || fail "$*: exit $rc, expected 2"
+    grep -q -- "$named" "$work/bad.log" || fail "$*: the message does not name $named: $(cat "$work/bad.log")"
+  fi
+  rm -rf "$work/bad"
+}
 # refused OPTION VALUE...: each bad value exits 2 with a message that names the option
 refused() {
-  local option="$1" v rc; shift
-  for v in "$@"; do
-    if batch "$work/bad" "$option" "$v"; then
-      fail "$option '$v' was accepted"
-    else
-      rc=$?
-      [ "$rc" = 2 ] || fail "$option '$v': exit $rc, expected 2"
-      grep -q -- "$option" "$work/bad.log" || fail "$option '$v': the message does not name the option: $(cat "$work/bad.log")"
-    fi
-    rm -rf "$work/bad"
-  done
+  local option="$1" v; shift
+  for v in "$@"; do refused_args "$option" "$option" "$v"; done
 }
 refused --e-spread 1.5 1 -0.1 abc ''
 
@@ -90,12 +93,8 @@ else
 fi
 cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/rt/jobs.txt") \
   || fail "--mode realtime changed the seeds or the E draws"
-if batch "$work/bad" --mode realtime --latency-steps 3; then fail "--mode realtime with --latency-steps was accepted"
-else grep -q -- '--latency-steps' "$work/bad.log" || fail "--mode realtime --latency-steps: $(cat "$work/bad.log")"; fi
-rm -rf "$work/bad"
-if batch "$work/bad" --mode realtime --transport in_process; then fail "--mode realtime with in_process was accepted"
-else grep -q -- '--transport' "$work/bad.log" || fail "--mode realtime --transport in_process: $(cat "$work/bad.log")"; fi
-rm -rf "$work/bad"
+refused_args --latency-steps --mode realtime --latency-steps 3
+refused_args --transport --mode realtime --transport in_process
 refused --mode fast ''
 
 if [ "$fails" -gt 0 ]; then echo "experiments_batch_test: $fails failure(s)" >&2; exit 1; fi
