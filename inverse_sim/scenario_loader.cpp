@@ -220,7 +220,7 @@ void ReadPrediction(const YamlReader& pred, const std::string& path, InverseScen
     pred.Read("measure_latency", &s->loop.measure_latency);
     const int preparation = pred.ReadChoice("preparation", {"none", "buffer", "exhale"});
     if (preparation >= 0) s->loop.preparation = static_cast<Preparation>(preparation);
-    const int pose = pred.ReadChoice("model_pose", {"measured", "commanded", "expected"});
+    const int pose = pred.ReadChoice("model_pose", {"measured", "commanded", "expected", "auto"});
     if (pose >= 0) s->loop.model_pose = static_cast<ModelPose>(pose);
     pred.Read("enabled", &s->loop.prediction_enabled);
     std::string filter;

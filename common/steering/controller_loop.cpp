@@ -19,6 +19,7 @@ const char* ModelPoseName(ModelPose pose) {
     case ModelPose::kMeasured: return "measured";
     case ModelPose::kCommanded: return "commanded";
     case ModelPose::kExpected: return "expected";
+    case ModelPose::kAuto: return "auto";
   }
   return "?";
 }
@@ -67,7 +68,7 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
     Reject(Str("frame ", frame.stamp.seq, ": ", e.what()));
     return false;
   }
-  if (frame.has_robot && config_.model_pose == ModelPose::kExpected) {  // the forecast's state
+  if (frame.has_robot && UsesForecast()) {  // the forecast's state
     try {
       forecast_.Observe(frame.stamp.sim_time, frame.X_WE, frame.q);
     } catch (const InputError& e) {
@@ -147,11 +148,24 @@ void ControllerLoop::SetCommanded(SteeringInput* input) const {
     input->X_WE_commanded = last_target_->X_WE;
 }
 
+ModelPose ControllerLoop::ResolvedModelPose() const {
+  if (config_.model_pose != ModelPose::kAuto) return config_.model_pose;
+  return config_.control.dof == SteeringDof::kJoint7 && latency_steps_ <= kAutoExpectedSteps
+             ? ModelPose::kExpected
+             : ModelPose::kCommanded;
+}
+
+bool ControllerLoop::UsesForecast() const {
+  return config_.model_pose == ModelPose::kExpected ||
+         (config_.model_pose == ModelPose::kAuto && config_.control.dof == SteeringDof::kJoint7);
+}
+
 void ControllerLoop::SetModelPose(SteeringInput* input) const {
-  if (config_.model_pose == ModelPose::kMeasured) return;
+  const ModelPose pose = ResolvedModelPose();
+  if (pose == ModelPose::kMeasured) return;
   const bool joints = input->q_commanded.has_value();
   if (!joints && !input->X_WE_commanded) return;  // nothing in flight, or the robot held
-  if (config_.model_pose == ModelPose::kCommanded || !forecast_.has_state() ||
+  if (pose == ModelPose::kCommanded || !forecast_.has_state() ||
       !(frame_period_ > 0.0)) {
     if (joints) input->q = *input->q_commanded;
     else input->X_WE = *input->X_WE_commanded;
@@ -305,7 +319,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   target.answers_seq = frame.stamp.seq;
   target.bevel_angle = frame.bevel_angle;
   last_target_ = target;
-  if (config_.model_pose == ModelPose::kExpected) {  // only the forecast needs them
+  if (UsesForecast()) {  // only the forecast needs them
     in_flight_.push_back(target);
     if (in_flight_.size() > kInFlightKept) in_flight_.pop_front();
   }

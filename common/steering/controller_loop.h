@@ -44,10 +44,18 @@ enum class Preparation { kNone, kBuffer, kExhale };
 
 /// Where the model's needle is while it registers to predicted markers
 /// (ControllerLoopConfig::model_pose).
-enum class ModelPose { kMeasured, kCommanded, kExpected };
+enum class ModelPose { kMeasured, kCommanded, kExpected, kAuto };
 
-/// The scenario's name of a ModelPose: "measured", "commanded", "expected".
+/// The scenario's name of a ModelPose: "measured", "commanded", "expected", "auto".
 const char* ModelPoseName(ModelPose pose);
+
+/// ModelPose::kAuto's bound in steps of measured latency (ControllerRecord::latency_steps):
+/// the iiwa's forecast pose up to it, the last commanded pose beyond. Measured, prediction on,
+/// 7-DoF, 22 runs a cell, `expected` against `commanded`: amplitude -67 % / -68 % / -50 % at 1
+/// step (seeds 2001-2022, 1001-1022) and 2 steps (1001-1022), the mean within +0.01 mm; at 3
+/// steps +33 % / -32 % (1001-1022, 2001-2022), at 5 steps +61 %, at 10 steps +18 % and
+/// +0.05 mm (docs/control.md, "The model's pose per robot and latency").
+inline constexpr int kAutoExpectedSteps = 2;
 
 /// Everything the controller loop is made of.
 struct ControllerLoopConfig {
@@ -92,8 +100,11 @@ struct ControllerLoopConfig {
   /// (`robot`, MotionForecast) from the measured state: the commanded pose for a robot that
   /// keeps up, and behind it when the commands jump faster than the robot can follow. With
   /// kCommanded and kExpected the model simulates one instant, the markers and the needle both
-  /// at t + horizon. Without prediction (or before the predictor is ready, or when the robot
-  /// held its last command) the model uses the measured pose either way.
+  /// at t + horizon. kAuto: kExpected for the iiwa's joint targets while the measured latency
+  /// is at most kAutoExpectedSteps steps, kCommanded otherwise (and always for the Cartesian
+  /// robot): the choice 22-run batches made per robot and latency (README "The model's needle
+  /// where the robot will be"). Without prediction (or before the predictor is ready, or when
+  /// the robot held its last command) the model uses the measured pose either way.
   ModelPose model_pose = ModelPose::kMeasured;
   /// The robot's limits for ModelPose::kExpected (the scenario's `robot` section; the iiwa's
   /// joint limits are its data sheet's).
@@ -211,6 +222,11 @@ class ControllerLoop {
   void SetCommanded(SteeringInput* input) const;
   // the model's needle pose while it registers to predicted markers (config_.model_pose)
   void SetModelPose(SteeringInput* input) const;
+  // config_.model_pose with kAuto resolved for the robot and the measured latency
+  ModelPose ResolvedModelPose() const;
+  // whether the model pose may be the forecast (the forecast's state and the commands in
+  // flight are then kept)
+  bool UsesForecast() const;
 
   ControllerLoopConfig config_;
   TetMesh mesh_;

@@ -139,8 +139,10 @@ TEST(ControllerLoopTest, PredictedModelPutsTheNeedleAtTheCommandedPose) {
 // it under the commands in flight. In lockstep with a latency of d steps that is exactly the
 // patient's needle d frames later (the robot executes those d commands, one a step); the last
 // command is not (the robot lags behind it while it accelerates), so the test tells them apart.
-// Both robots: the Cartesian one (its limits from the scenario) and the iiwa's joints.
-void CheckExpectedModelPose(bool iiwa) {
+// Both robots: the Cartesian one (its limits from the scenario) and the iiwa's joints. `auto`
+// resolves to one of the two: the forecast for the iiwa up to kAutoExpectedSteps of measured
+// latency, the last command beyond it and for the Cartesian robot (to_forecast says which).
+void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast) {
   DirectScenario direct = LoadDirectScenario(kScenario);
   if (iiwa) {  // the robot and its gate's joint limits (the loader's, for robot.type: iiwa)
     direct.robot.kind = RobotKind::kIiwa;
@@ -153,11 +155,10 @@ void CheckExpectedModelPose(bool iiwa) {
   const InverseScenario inverse = LoadInverseScenario(kScenario);
   PatientLoop patient(direct.LoopConfig(true), direct.liver_mesh, direct.skin_mesh);
   ControllerLoopConfig config = WithQuickPredictor(inverse.loop);
-  config.model_pose = ModelPose::kExpected;
+  config.model_pose = pose;
   if (iiwa) config.control.dof = SteeringDof::kJoint7;
-  ControllerLoop expected(config, ReadGmshMesh(inverse.mesh_path));
+  ControllerLoop controller(config, ReadGmshMesh(inverse.mesh_path));
   const double length = inverse.loop.model.needle.length;
-  const int d = 3;
   LockstepTargets delay(d);
   std::vector<Eigen::Vector3d> measured_tips, model_tips, commanded_tips;
   std::vector<bool> forecast;
@@ -166,12 +167,14 @@ void CheckExpectedModelPose(bool iiwa) {
     const SensorFrame frame = patient.frame();
     ASSERT_EQ(frame.q.size(), iiwa ? 7u : 0u);
     measured_tips.push_back(CalcTipPosition(frame.X_WE, length));
-    const std::optional<RobotTarget> target = expected.Step(frame);
-    ASSERT_TRUE(target.has_value()) << expected.counts().last_rejection;
+    const std::optional<RobotTarget> target = controller.Step(frame);
+    ASSERT_TRUE(target.has_value()) << controller.counts().last_rejection;
     ASSERT_EQ(target->mode, iiwa ? TargetMode::kJoint : TargetMode::kCartesian);
-    model_tips.push_back(expected.last_record().model_tip);
-    forecast.push_back(expected.last_record().predicted && k > 0 &&
-                       frame.applied_seq != SensorFrame::kNoTarget);
+    model_tips.push_back(controller.last_record().model_tip);
+    // a forecast needs a measured latency (the frame period) and two observed frames
+    forecast.push_back(controller.last_record().predicted && k > 1 &&
+                       frame.applied_seq != SensorFrame::kNoTarget &&
+                       controller.last_record().latency_steps == d);
     commanded_tips.push_back(last ? CalcTipPosition(last->X_WE, length) : measured_tips.back());
     last = target;
     delay.Add(*target);
@@ -181,21 +184,36 @@ void CheckExpectedModelPose(bool iiwa) {
   double largest_lag = 0.0;
   for (size_t k = 0; k + d < model_tips.size(); ++k) {
     if (!forecast[k]) continue;
-    EXPECT_LT((model_tips[k] - measured_tips[k + d]).norm(), 1e-9) << k;
+    if (to_forecast)
+      EXPECT_LT((model_tips[k] - measured_tips[k + d]).norm(), 1e-9) << k;
+    else
+      EXPECT_LT((model_tips[k] - commanded_tips[k]).norm(), 1e-12) << k;
     largest_lag = std::max(largest_lag, (commanded_tips[k] - measured_tips[k + d]).norm());
     ++compared;
   }
-  std::printf("%s: %d forecasts, the last command up to %.3g mm from where the needle went\n",
-              iiwa ? "iiwa" : "Cartesian robot", compared, largest_lag * 1e3);
+  std::printf("%s, %s, %d steps: %d forecasts, the last command up to %.3g mm from where the "
+              "needle went\n", iiwa ? "iiwa" : "Cartesian robot", ModelPoseName(pose), d, compared,
+              largest_lag * 1e3);
   EXPECT_GE(compared, 20);
   EXPECT_GT(largest_lag, 1e-5) << "the robot kept up with every command: nothing forecast";
 }
 
 TEST(ControllerLoopTest, ExpectedModelPoseIsWhereTheCartesianRobotWillBe) {
-  CheckExpectedModelPose(false);
+  CheckModelPose(false, ModelPose::kExpected, 3, true);
 }
 
-TEST(ControllerLoopTest, ExpectedModelPoseIsWhereTheIiwaWillBe) { CheckExpectedModelPose(true); }
+TEST(ControllerLoopTest, ExpectedModelPoseIsWhereTheIiwaWillBe) {
+  CheckModelPose(true, ModelPose::kExpected, 3, true);
+}
+
+// `auto`: the iiwa's forecast at 1 and kAutoExpectedSteps steps, its last command beyond; the
+// Cartesian robot's last command at any latency
+TEST(ControllerLoopTest, AutoModelPoseIsTheIiwasForecastAtShortLatencies) {
+  CheckModelPose(true, ModelPose::kAuto, 1, true);
+  CheckModelPose(true, ModelPose::kAuto, kAutoExpectedSteps, true);
+  CheckModelPose(true, ModelPose::kAuto, kAutoExpectedSteps + 1, false);
+  CheckModelPose(false, ModelPose::kAuto, 1, false);
+}
 
 // prediction.preparation (thesis fig. 4.1): the robot is held at its first pose, the model
 // following the markers, until the predictor's buffer is full; then the law steers. Without

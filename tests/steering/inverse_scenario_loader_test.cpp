@@ -96,12 +96,12 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   const InverseScenario plain = Load(DefaultText());
   EXPECT_FALSE(plain.loop.model.tip_ramp);
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
-  EXPECT_EQ(plain.loop.model_pose, ModelPose::kCommanded);  // the default scenario's
+  EXPECT_EQ(plain.loop.model_pose, ModelPose::kAuto);       // the default scenario's
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
                             "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
-  text = Edited(text, "  model_pose: commanded ", "  model_pose: measured ");
+  text = Edited(text, "  model_pose: auto ", "  model_pose: measured ");
   text = Edited(text, "  preparation: exhale ", "  preparation: buffer ");
   text = Edited(text, "  shrink: true ", "  shrink: false ");
   const InverseScenario s = Load(text);
@@ -125,13 +125,16 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
             std::string::npos)
       << friction;
   const std::string pose = LoadError(
-      Edited(DefaultText(), "  model_pose: commanded ", "  model_pose: future "));
-  EXPECT_NE(pose.find("prediction.model_pose: expected one of measured, commanded, expected, got 'future'"),
+      Edited(DefaultText(), "  model_pose: auto ", "  model_pose: future "));
+  EXPECT_NE(pose.find("prediction.model_pose: expected one of measured, commanded, expected, auto, got 'future'"),
             std::string::npos)
       << pose;
-  EXPECT_EQ(Load(Edited(DefaultText(), "  model_pose: commanded ", "  model_pose: expected "))
+  EXPECT_EQ(Load(Edited(DefaultText(), "  model_pose: auto ", "  model_pose: expected "))
                 .loop.model_pose,
             ModelPose::kExpected);
+  EXPECT_EQ(Load(Edited(DefaultText(), "  model_pose: auto ", "  model_pose: commanded "))
+                .loop.model_pose,
+            ModelPose::kCommanded);
 }
 
 // the robot's limits, for the forecast of where the commands in flight take it: the scenario's
