@@ -3,9 +3,9 @@
 # ssh) or a Slurm array task executes once per job, and the code that turns a run's folder into
 # its runs.csv row (used again by experiments.sh when it collects the batch).
 #
-#   scripts/experiment_run.sh run --out DIR --bin BIN [--transport in_process|dds]
-#       [--mode lockstep|realtime] [--latency-steps N] [--duration S] [--localization-delay S]
-#       [--timeout S]
+#   scripts/experiment_run.sh run --out DIR --bin BIN [--transport in_process|dds|two_hosts]
+#       [--loss PCT] [--mode lockstep|realtime] [--latency-steps N] [--duration S]
+#       [--localization-delay S] [--timeout S]
 #       [--partition-prefix P] [--domain N]  SETTING RUN SEED E CONFIG FLAGS
 #   scripts/experiment_run.sh row DIR/SETTING/run_RUN SETTING RUN SEED E
 #
@@ -16,7 +16,12 @@
 # it: the scenario's prediction.localization_delay). in_process (the default): direct_sim run
 # --in-process, both loops in one process, no DDS. dds: inverse_sim run and direct_sim run as
 # two processes on their own partition P_SETTING_RUN, so that runs side by side do not meet.
-# --mode realtime (dds only): both loops on the wall clock, the latency whatever the machine
+# two_hosts: the same two processes on two "machines", as scripts/two_hosts.sh: direct_sim in a
+# network namespace of its own (10.77.0.1), inverse_sim in another (10.77.0.2), joined by a
+# veth pair, the two-machine DDS configuration (configs/dds/two_hosts.xml); --loss PCT drops
+# PCT % of the packets arriving in each namespace (default 0); the namespaces are this run's
+# (made and removed here) and the counts of dropped packets go to direct.log. Needs root.
+# --mode realtime (dds, two_hosts): both loops on the wall clock, the latency whatever the machine
 # makes it (the controller measures it; --latency-steps does not apply); lockstep (default):
 # the latency of --latency-steps, simulated, results reproducible to the bit.
 # One core per run: OPENBLAS_NUM_THREADS, OMP_NUM_THREADS and OMP_THREAD_LIMIT are set to 1
@@ -52,12 +57,13 @@ fi
 shift
 
 out=""; bin=""; transport=in_process; mode=lockstep; latency=1; duration=20; delay=""; timeout=600
-prefix="exp$$"; domain=0
+prefix="exp$$"; domain=0; loss=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
     --bin) bin="$2"; shift 2 ;;
     --transport) transport="$2"; shift 2 ;;
+    --loss) loss="$2"; shift 2 ;;
     --mode) mode="$2"; shift 2 ;;
     --latency-steps) latency="$2"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
@@ -72,9 +78,14 @@ done
 [ $# -eq 6 ] || die "run takes SETTING RUN SEED E CONFIG FLAGS after its options, got $# arguments"
 name="$1"; r="$2"; rseed="$3"; emod="$4"; cfg="$5"; read -ra flags <<< "$6"
 [ -n "$out" ] || die "--out is required"
-case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
+case "$transport" in in_process|dds|two_hosts) ;; *) die "--transport must be in_process, dds or two_hosts, got '$transport'" ;; esac
 case "$mode" in lockstep|realtime) ;; *) die "--mode must be lockstep or realtime, got '$mode'" ;; esac
-[ "$mode" = lockstep ] || [ "$transport" = dds ] || die "--mode realtime needs --transport dds (in_process is lockstep only)"
+[ "$mode" = lockstep ] || [ "$transport" != in_process ] || die "--mode realtime needs --transport dds or two_hosts (in_process is lockstep only)"
+if [ -n "$loss" ]; then
+  [ "$transport" = two_hosts ] || die "--loss needs --transport two_hosts"
+  [[ "$loss" =~ ^[0-9]+$ ]] && [ "$loss" -le 100 ] || die "--loss must be 0..100 (percent), got '$loss'"
+fi
+[ "$transport" != two_hosts ] || [ "$(id -u)" -eq 0 ] || die "--transport two_hosts needs root (ip netns, nft)"
 [ -x "$bin/direct_sim" ] || die "no direct_sim in --bin '$bin' (build first, or set NSIM_BUILD_DIR)"
 [ -f "$cfg" ] || die "no such scenario: $cfg"
 
@@ -88,6 +99,15 @@ stop() {
   echo "experiments: $name run $r: stopped (timeout or interrupt)"; exit 143
 }
 trap stop TERM INT
+# two_hosts: this run's namespaces, removed however the script ends (the processes in them are
+# gone by then: killed by stop, or finished)
+if [ "$transport" = two_hosts ]; then
+  # shellcheck source=scripts/netns_pair.sh
+  . "$root/scripts/netns_pair.sh"
+  trap netns_pair_down EXIT
+  netns_pair_up "nx$$" || { echo "experiment_run: cannot make the two namespaces and their veth pair" >&2; exit 1; }
+  netns_pair_loss "${loss:-0}" || { echo "experiment_run: cannot make the loss rules (nft)" >&2; exit 1; }
+fi
 
 common=(--config "$cfg" --mode "$mode" --duration "$duration" --seed "$rseed" --young-modulus "$emod"
         --no-video --quiet)
@@ -107,11 +127,14 @@ else
   # while a build ran); realtime: 2 s, as scripts/run.sh (the robot holds after
   # safety.hold_timeout without targets whatever the lease)
   lease=3; [ "$mode" = lockstep ] || lease=2
-  dds=(--dds-config "$root/configs/dds/local.xml" --domain "$domain" --lease "$lease" --partition "${prefix}_${name}_$r")
-  "$bin/inverse_sim" run --config "$cfg" --out "$dir/inverse" --mode "$mode" --timeout "$timeout" \
+  xml=local.xml; [ "$transport" = dds ] || xml=two_hosts.xml
+  dds=(--dds-config "$root/configs/dds/$xml" --domain "$domain" --lease "$lease" --partition "${prefix}_${name}_$r")
+  direct_ns=(); inverse_ns=()
+  [ "$transport" = dds ] || { direct_ns=(ip netns exec "$NETNS_A"); inverse_ns=(ip netns exec "$NETNS_B"); }
+  "${inverse_ns[@]}" "$bin/inverse_sim" run --config "$cfg" --out "$dir/inverse" --mode "$mode" --timeout "$timeout" \
     "${ctl[@]}" --quiet "${dds[@]}" > "$dir/inverse.log" 2>&1 &
   ip=$!; pids=("$ip")
-  timeout -s KILL "$timeout" "$bin/direct_sim" run "${common[@]}" --out "$dir/direct" "${dds[@]}" \
+  timeout -s KILL "$timeout" "${direct_ns[@]}" "$bin/direct_sim" run "${common[@]}" --out "$dir/direct" "${dds[@]}" \
     > "$dir/direct.log" 2>&1 &
   dp=$!; pids+=("$dp")
   # a controller that fails at the start (e.g. a scenario key it does not know) would leave
@@ -127,6 +150,7 @@ else
   # the controller leaves by itself when direct_sim reports the end; give it 5 s
   for _ in $(seq 1 50); do kill -0 "$ip" 2>/dev/null || break; sleep 0.1; done
   kill "$ip" 2>/dev/null || true; wait "$ip" 2>/dev/null || true
+  [ "$transport" = dds ] || [ "${loss:-0}" -eq 0 ] || netns_pair_dropped | sed 's/^/experiment_run: /' >> "$dir/direct.log"
 fi
 pids=()
 

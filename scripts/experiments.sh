@@ -10,7 +10,8 @@
 #                          [--marker-noise S]
 #                          [--bevel] [--dof7]
 #                          [--model-bevel] [--flexible]
-#                          [--settings REGEX] [--no-build] [--transport in_process|dds] [--jobs N] [--timeout S]
+#                          [--settings REGEX] [--no-build] [--transport in_process|dds|two_hosts]
+#                          [--loss PCT] [--jobs N] [--timeout S]
 #                          [--hosts H1,H2,... | --slurm] [--dry-run]
 #   scripts/experiments.sh --collect DIR
 #   scripts/experiments.sh --replay MARKERS.csv [--horizon 0.1,0.2] [--no-build]
@@ -31,8 +32,8 @@
 # table, with the paired prediction on - off lines of every latency; also printed) and
 # DIR/sweep.png (final error and amplitude against latency, one line per setting: prediction on
 # and off, 6-DoF and, with --dof7, 7-DoF). `--collect DIR` on a sweep folder rebuilds them.
-# --mode realtime: every run in realtime mode (both loops on the wall clock, over DDS: implies
-# --transport dds) instead of lockstep: the latency is whatever the machine makes it (the
+# --mode realtime: every run in realtime mode (both loops on the wall clock, over DDS: --transport
+# dds, or two_hosts when given) instead of lockstep: the latency is whatever the machine makes it (the
 # controller measures it; no --latency-steps) and runs are not reproducible to the bit. Each run
 # is two processes that want a core each: --jobs defaults to one run per two cores. table.txt
 # adds per setting what the runs got: the controller's measured frame-to-applied delay (median),
@@ -61,6 +62,11 @@
 #                           DDS; the same results as the two-process lockstep run
 #   --transport dds         inverse_sim run + direct_sim run over DDS, each run on its own
 #                           partition exp<pid>_<setting>_<run>
+#   --transport two_hosts   the same two processes on two "machines" (scripts/two_hosts.sh): each
+#                           in a network namespace of its own, joined by a veth pair, one pair
+#                           per run; --loss PCT drops PCT % of the packets arriving in each
+#                           namespace (default 0). Needs root; this machine only (no --hosts or
+#                           --slurm). With --mode realtime: the two-machine realtime cell
 #   --jobs N                runs at a time (default: the number of cores, `nproc`; with --hosts:
 #                           per host, default one per core of each host)
 #   --timeout S             a run still going after S seconds is killed and counted as failed
@@ -93,13 +99,13 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=26
 latency=1; gain=""; noise=""; noise_given=0; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
 model_bevel=0; flexible=0
-transport=in_process; transport_given=0; mode=lockstep; latency_given=0; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
+transport=in_process; transport_given=0; loss=""; mode=lockstep; latency_given=0; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
 die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # the options that take a value must have one
   case "$1" in
-    --runs|--seed|--scenario|--duration|--latency-steps|--mode|--gain|--e-spread|--marker-noise|--settings|--transport|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+    --runs|--seed|--scenario|--duration|--latency-steps|--mode|--gain|--e-spread|--marker-noise|--settings|--transport|--loss|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
       [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
   esac
   case "$1" in
@@ -118,6 +124,7 @@ while [ $# -gt 0 ]; do
     --flexible) flexible=1; shift ;;
     --settings) only="$2"; shift 2 ;;
     --transport) transport="$2"; transport_given=1; shift 2 ;;
+    --loss) loss="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
     --timeout) timeout="$2"; shift 2 ;;
     --hosts) hosts="$2"; shift 2 ;;
@@ -146,12 +153,12 @@ fi
   || die "--marker-noise must be a standard deviation in [0, 0.01] m, got '$noise'"
 [[ "$espread" =~ ^(0(\.[0-9]*)?|\.[0-9]+)$ ]] \
   || die "--e-spread must be a fraction in [0, 1), got '$espread'"
-case "$transport" in in_process|dds) ;; *) die "--transport must be in_process or dds, got '$transport'" ;; esac
+case "$transport" in in_process|dds|two_hosts) ;; *) die "--transport must be in_process, dds or two_hosts, got '$transport'" ;; esac
 case "$mode" in lockstep|realtime) ;; *) die "--mode must be lockstep or realtime, got '$mode'" ;; esac
 if [ "$mode" = realtime ]; then
   [ "$latency_given" = 0 ] || die "--mode realtime measures its latency: no --latency-steps"
-  [ "$transport_given" = 0 ] || [ "$transport" = dds ] || die "--mode realtime runs over DDS: no --transport in_process"
-  transport=dds
+  [ "$transport_given" = 0 ] || [ "$transport" != in_process ] || die "--mode realtime runs over DDS: no --transport in_process"
+  [ "$transport_given" = 1 ] || transport=dds
   # two processes a run, a core each
   [ -n "$jobs" ] || [ -n "$hosts" ] || jobs=$(( $(nproc) / 2 > 0 ? $(nproc) / 2 : 1 ))
 fi
@@ -168,6 +175,14 @@ if [ -n "$hosts" ]; then
   done
 fi
 [ -z "$hosts" ] || [ "$slurm" = 0 ] || die "--hosts and --slurm exclude each other"
+if [ -n "$loss" ]; then
+  [ "$transport" = two_hosts ] || die "--loss needs --transport two_hosts"
+  [[ "$loss" =~ ^[0-9]+$ ]] && [ "$loss" -le 100 ] || die "--loss must be 0..100 (percent), got '$loss'"
+fi
+if [ "$transport" = two_hosts ]; then
+  [ -z "$hosts" ] && [ "$slurm" = 0 ] || die "--transport two_hosts makes network namespaces on this machine: no --hosts or --slurm"
+  [ "$dry_run" = 1 ] || [ "$(id -u)" -eq 0 ] || die "--transport two_hosts needs root (ip netns, nft)"
+fi
 
 # ---- the batch's table and plots, from its folder (after the local runs, or --collect) ----
 # runs.csv in the order of jobs.txt (setting, then run) whatever order the runs ended in; a run
@@ -344,6 +359,7 @@ if [[ "$latency" == *,* ]]; then
   [ "$slurm" = 0 ] && [ "$dry_run" = 0 ] || die "a latency sweep runs its batches here: no --slurm or --dry-run (run one batch per latency instead)"
   sub=(--runs "$runs" --seed "$seed" --scenario "$scenario" --duration "$duration" --transport "$transport"
        --timeout "$timeout" --no-build)
+  [ -z "$loss" ] || sub+=(--loss "$loss")
   [ -z "$gain" ] || sub+=(--gain "$gain")
   [ -z "$noise" ] || sub+=(--marker-noise "$noise")
   [ "$bevel" = 0 ] || sub+=(--bevel)
@@ -486,7 +502,7 @@ njobs=$(wc -l < "$out/jobs.txt")
 batch_latency="$latency"; [ "$mode" = lockstep ] || batch_latency=measured
 printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" e_spread "$espread" mode "$mode" latency_steps "$batch_latency" \
   marker_noise "${noise:-scenario}" \
-  duration_s "$duration" transport "$transport" timeout_s "$timeout" > "$out/batch.txt"
+  duration_s "$duration" transport "$transport" loss_percent "${loss:-0}" timeout_s "$timeout" > "$out/batch.txt"
 
 # the one-run command shared by every job (parallel adds the job's six fields as {1}..{6},
 # a Slurm task reads them from its line of jobs.txt)
@@ -494,6 +510,7 @@ run_cmd=("$root/scripts/experiment_run.sh" run --out "$out" --bin "$bin" --trans
          --mode "$mode" --latency-steps "$latency" --duration "$duration" --timeout "$timeout"
          --partition-prefix "exp$$" --domain "${NSIM_DOMAIN:-0}")
 [ -z "$delay" ] || run_cmd+=(--localization-delay "$delay")
+[ -z "$loss" ] || run_cmd+=(--loss "$loss")
 [ "$dry_run" = 1 ] || [ -x "$bin/direct_sim" ] || { echo "experiments: no $bin/direct_sim: build first (scripts/build.sh) or set NSIM_BUILD_DIR" >&2; exit 1; }
 
 # ---- --slurm: a job array over jobs.txt, nothing run here ----
@@ -553,7 +570,7 @@ if [ -n "$hosts" ]; then
 fi
 
 mode_text="lockstep (latency $latency steps)"; [ "$mode" = lockstep ] || mode_text="realtime (latency measured)"
-echo "experiments: $runs runs x ${#settings[@]} settings, $mode_text, $duration s each, E0 = $e0 Pa +-$(awk -v f="$espread" 'BEGIN { printf "%g", 100 * f }') %, $transport, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
+echo "experiments: $runs runs x ${#settings[@]} settings, $mode_text, $duration s each, E0 = $e0 Pa +-$(awk -v f="$espread" 'BEGIN { printf "%g", 100 * f }') %, $transport${loss:+ ($loss % loss)}, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
 start=$(date +%s.%N)
 pcode=0
 "${par[@]}" "$cmd" :::: "$out/jobs.txt" || pcode=$?

@@ -80,13 +80,7 @@ trap 'echo "two_hosts: interrupted"; exit 130' INT TERM
 
 netns_pair_up "$tag" || { echo "two_hosts: cannot make the two namespaces and their veth pair" >&2; exit 1; }
 ns1="$NETNS_A"; ns2="$NETNS_B"
-if [ "$loss" -gt 0 ]; then
-  for ns in "$ns1" "$ns2"; do
-    ip netns exec "$ns" nft add table inet nsim
-    ip netns exec "$ns" nft add chain inet nsim input '{ type filter hook input priority 0 ; policy accept ; }'
-    ip netns exec "$ns" nft add rule inet nsim input iifname "${tag}*" numgen random mod 100 '<' "$loss" counter drop
-  done
-fi
+netns_pair_loss "$loss" || { echo "two_hosts: cannot make the loss rules (nft)" >&2; exit 1; }
 echo "two_hosts: direct_sim on 10.77.0.1 ($ns1), inverse_sim on 10.77.0.2 ($ns2), loss $loss %, $( [ "$mode" = lockstep ] && echo "lockstep latency $latency steps" || echo realtime)${secure:+, DDS Security with $secure}"
 echo "two_hosts: results in $out"
 
@@ -111,11 +105,7 @@ for _ in $(seq 1 50); do kill -0 "$inv" 2>/dev/null || break; sleep 0.1; done
 kill "$inv" 2>/dev/null || true
 icode=0; wait "$inv" || icode=$?
 pids=()
-if [ "$loss" -gt 0 ]; then
-  for ns in "$ns1" "$ns2"; do
-    echo "two_hosts: $ns dropped: $(ip netns exec "$ns" nft list chain inet nsim input | grep -o 'packets [0-9]*')"
-  done
-fi
+[ "$loss" -eq 0 ] || netns_pair_dropped | sed 's/^/two_hosts: /'
 [ -f "$out/direct/summary.json" ] || { echo "two_hosts: direct_sim wrote no summary (exit $dcode)" >&2; exit 1; }
 jq -n --slurpfile d "$out/direct/summary.json" --slurpfile i <(cat "$out/inverse/summary.json" 2>/dev/null || echo '{}') \
   --argjson loss "$loss" --argjson latency "$latency" --arg mode "$mode" '($d[0]) as $d | ($i[0] // {}) as $i | {

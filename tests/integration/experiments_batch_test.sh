@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # scripts/experiments.sh's batch description (--dry-run: no simulation runs): the per-run draws
 # of the breathing seed and the patient's Young's modulus, --e-spread, --marker-noise, --mode
-# realtime, and their bad values.
+# realtime, --transport two_hosts with --loss, and their bad values.
 # Usage: experiments_batch_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: experiments_batch_test.sh SOURCE_DIR}"
@@ -96,6 +96,24 @@ cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/rt/jobs.txt") \
 refused_args --latency-steps --mode realtime --latency-steps 3
 refused_args --transport --mode realtime --transport in_process
 refused --mode fast ''
+
+# --transport two_hosts: the jobs' command carries it and the loss, batch.txt records the loss;
+# refused: a loss without two_hosts or out of 0..100, two_hosts with --slurm
+batch "$work/th" --transport two_hosts --loss 5 --mode realtime || fail "--transport two_hosts: exit $? ($(cat "$work/th.log"))"
+grep -q 'experiment_run.sh run .*--transport two_hosts .*--loss 5 ' "$work/th.log" \
+  || fail "--transport two_hosts --loss 5: the jobs' command lacks them"
+grep -qx 'loss_percent 5' "$work/th/batch.txt" || fail "--loss 5: batch.txt lacks 'loss_percent 5'"
+grep -q '^  mode: realtime' "$work/th/scenario_base.yaml" || fail "--transport two_hosts --mode realtime: not realtime"
+refused_args --loss --loss 5
+refused_args --loss --transport two_hosts --loss 101
+refused_args --slurm --transport two_hosts --slurm
+if timeout 20 "$src/scripts/experiment_run.sh" run --out "$work/one" --bin /nonexistent --loss 5 \
+     pred_on 0 1 5500 "$work/rt/scenario_base.yaml" "--prediction on" > "$work/one.log" 2>&1; then
+  fail "experiment_run.sh took --loss in process"
+else
+  rc=$?; [ "$rc" = 2 ] && grep -q -- '--loss needs --transport two_hosts' "$work/one.log" \
+    || fail "experiment_run.sh --loss in_process: exit $rc, $(cat "$work/one.log")"
+fi
 
 if [ "$fails" -gt 0 ]; then echo "experiments_batch_test: $fails failure(s)" >&2; exit 1; fi
 echo "experiments_batch_test: passed"

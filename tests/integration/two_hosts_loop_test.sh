@@ -5,7 +5,8 @@
 # final error to the last digit, without a lockstep timeout or a missing frame; so does a third
 # run with 10 % loss and DDS Security (--secure, credentials made by scripts/make_credentials.sh).
 # A fourth run is realtime (--mode realtime) with 5 % loss: it completes, the controller answers
-# frames and measures the loop's delay, and the summary says realtime.
+# frames and measures the loop's delay, and the summary says realtime. Last, a batch of two runs
+# on two hosts (scripts/experiments.sh --transport two_hosts, 10 % loss) as in one process.
 # Exit 77 (skipped) where network namespaces or nftables are not available.
 set -u
 build="$1"; src="$2"
@@ -66,5 +67,25 @@ else
   awk -v d="$(rt '.inverse.measured_loop_delay_ms.median // 0')" 'BEGIN { exit !(d > 0 && d < 1000) }' ||
     { echo "FAIL: realtime run: measured loop delay $(rt '.inverse.measured_loop_delay_ms.median')"; fail=1; }
 fi
+
+# a batch's runs on two hosts (scripts/experiments.sh --transport two_hosts: a namespace pair
+# per run, two runs side by side) with 10 % loss give the in-process runs' results to the last
+# digit, and leave no namespace behind
+coarse="$src/configs/scenarios/liver_test_coarse.yaml"
+for t in in_process two_hosts; do
+  loss=(); [ "$t" = two_hosts ] && loss=(--loss 10)
+  NSIM_BUILD_DIR="$build" NSIM_RESULTS_DIR="$dir/batch_$t" NSIM_DOMAIN=43 timeout -s INT 150 \
+    "$src/scripts/experiments.sh" --runs 2 --seed 3 --duration 2 --scenario "$coarse" \
+    --settings pred_off --no-build --jobs 2 --transport "$t" "${loss[@]}" > "$dir/batch_$t.log" 2>&1 ||
+    { cat "$dir/batch_$t.log"; echo "FAIL: experiments.sh --transport $t exited $?"; fail=1; }
+done
+results() { cut -d, -f1-7 "$dir/batch_$1/runs.csv" 2>/dev/null; }
+[ "$(results two_hosts | grep -c ',completed,')" = 2 ] && [ "$(results in_process)" = "$(results two_hosts)" ] ||
+  { echo "FAIL: the batch on two hosts differs from the in-process one:"; results in_process; results two_hosts; fail=1; }
+batch_dropped=$(cat "$dir"/batch_two_hosts/pred_off/run_*/direct.log | grep -o 'dropped: packets [0-9]*' | awk '{s += $3} END {print s + 0}')
+[ "$batch_dropped" -gt 0 ] || { echo "FAIL: the batch's loss rules dropped no packet"; fail=1; }
+left=$(ip netns list | grep -c '^nx' || true)
+[ "$left" = 0 ] || { echo "FAIL: the batch left $left namespaces: $(ip netns list)"; fail=1; }
+
 [ "$fail" -eq 0 ] || exit 1
-echo "PASS: final error $e0 mm with and without 10 % loss, secured too ($dropped packets dropped); realtime with 5 % loss: $(rt .inverse.frames_answered) frames answered, loop latency median $(rt .loop_latency_ms.median) ms"
+echo "PASS: final error $e0 mm with and without 10 % loss, secured too ($dropped packets dropped); realtime with 5 % loss: $(rt .inverse.frames_answered) frames answered, loop latency median $(rt .loop_latency_ms.median) ms; a batch on two hosts with 10 % loss as in process ($batch_dropped packets dropped)"
