@@ -296,8 +296,9 @@ collect_sweep() {  # collect_sweep DIR
   local dir="$1" d lat
   echo "latency_steps,setting,runs,final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,amplitude_std_mm,failed" > "$dir/sweep.csv"
   : > "$dir/sweep_pairs.txt"
-  for d in $(ls -d "$dir"/latency_* | sort -t_ -k2 -n); do
-    lat="${d##*latency_}"
+  # in the order of the latencies (the folder's own path may hold underscores and digits)
+  for lat in $(ls -d "$dir"/latency_* | sed 's|.*/latency_||' | sort -n); do
+    d="$dir/latency_$lat"
     [ -f "$d/runs.csv" ] || { echo "experiments: $d has no runs.csv (collect it first)" >&2; return 1; }
     awk -F, -v L="$lat" 'NR > 1 { n[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 }
         if ($5 != "completed") bad[$1]++

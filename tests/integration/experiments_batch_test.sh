@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # scripts/experiments.sh's batch description (--dry-run: no simulation runs): the per-run draws
 # of the breathing seed and the patient's Young's modulus, --e-spread, --marker-noise, --mode
-# realtime, --transport two_hosts with --loss, and their bad values.
+# realtime, --transport two_hosts with --loss, and their bad values; and --collect's order of a
+# sweep's latencies.
 # Usage: experiments_batch_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: experiments_batch_test.sh SOURCE_DIR}"
@@ -114,6 +115,22 @@ else
   rc=$?; [ "$rc" = 2 ] && grep -q -- '--loss needs --transport two_hosts' "$work/one.log" \
     || fail "experiment_run.sh --loss in_process: exit $rc, $(cat "$work/one.log")"
 fi
+
+# --collect on a sweep folder (three one-run batches, their summaries made up here) whose own
+# path holds underscores and digits: sweep.csv lists the latencies in numeric order
+sweep="$work/sweep_2026_12"
+for lat in 10 1 3; do
+  b="$sweep/latency_$lat"
+  mkdir -p "$b/pred_on/run_0/direct"
+  printf 'pred_on\t0\t1\t5500\tnone.yaml\t--prediction on\n' > "$b/jobs.txt"
+  printf 'e0 5500\nseed 1\ne_spread 0.13\nmode lockstep\nlatency_steps %s\n' "$lat" > "$b/batch.txt"
+  echo "{\"exit\": \"completed\", \"final_error_mm\": $lat, \"final_error_amplitude_mm\": 0.1}" \
+    > "$b/pred_on/run_0/direct/summary.json"
+done
+timeout 60 "$src/scripts/experiments.sh" --collect "$sweep" > "$work/sweep.log" 2>&1 \
+  || fail "--collect on a sweep: exit $? ($(tail -3 "$work/sweep.log"))"
+[ "$(tail -n +2 "$sweep/sweep.csv" 2>/dev/null | cut -d, -f1,4 | tr '\n' ' ')" = "1,1.0000 3,3.0000 10,10.0000 " ] \
+  || fail "--collect: sweep.csv is not in the order of the latencies: $(cut -d, -f1,4 "$sweep/sweep.csv" | tr '\n' ' ')"
 
 if [ "$fails" -gt 0 ]; then echo "experiments_batch_test: $fails failure(s)" >&2; exit 1; fi
 echo "experiments_batch_test: passed"
