@@ -33,9 +33,9 @@
 # DIR/sweep.png (final error and amplitude against latency, one line per setting: prediction on
 # and off, 6-DoF and, with --dof7, 7-DoF). `--collect DIR` on a sweep folder rebuilds them.
 # --mode realtime: every run in realtime mode (both loops on the wall clock, over DDS: --transport
-# dds, or two_hosts when given) instead of lockstep: the latency is whatever the machine makes it (the
-# controller measures it; no --latency-steps) and runs are not reproducible to the bit. Each run
-# is two processes that want a core each: --jobs defaults to one run per two cores. table.txt
+# dds, or two_hosts when given) instead of lockstep: the latency is whatever the machine makes it
+# (the controller measures it; no --latency-steps) and runs are not reproducible to the bit.
+# Each run is two processes that want a core each: --jobs defaults to one run per two cores. table.txt
 # adds per setting what the runs got: the controller's measured frame-to-applied delay (median),
 # direct_sim's rate, its step p99 and its steps over the step budget (runs.csv's loop_latency_ms
 # is the mean time from a frame's publication to its target's arrival at direct_sim).
