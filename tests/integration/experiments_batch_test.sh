@@ -84,14 +84,20 @@ grep -q '^  mode: lockstep' "$work/default/scenario_base.yaml" || fail "default:
 grep -qx 'mode realtime' "$work/rt/batch.txt" || fail "--mode realtime: batch.txt lacks 'mode realtime'"
 grep -qx 'transport dds' "$work/rt/batch.txt" || fail "--mode realtime: not over DDS ($(grep transport "$work/rt/batch.txt"))"
 grep -q 'experiment_run.sh run .*--mode realtime' "$work/rt.log" || fail "--mode realtime: the jobs' command does not say realtime"
-# one run refuses realtime in one process (lockstep only) before it starts anything
-if timeout 20 "$src/scripts/experiment_run.sh" run --out "$work/one" --bin /nonexistent --mode realtime \
-     pred_on 0 1 5500 "$work/rt/scenario_base.yaml" "--prediction on" > "$work/one.log" 2>&1; then
-  fail "experiment_run.sh ran realtime in_process"
-else
-  rc=$?; [ "$rc" = 2 ] && grep -q -- '--mode realtime needs --transport dds' "$work/one.log" \
-    || fail "experiment_run.sh realtime in_process: exit $rc, $(cat "$work/one.log")"
-fi
+# run_refused MESSAGE OPTIONS...: one run (experiment_run.sh) with OPTIONS exits 2 with MESSAGE
+# before it starts anything
+run_refused() {
+  local message="$1" rc; shift
+  if timeout 20 "$src/scripts/experiment_run.sh" run --out "$work/one" --bin /nonexistent "$@" \
+       pred_on 0 1 5500 "$work/rt/scenario_base.yaml" "--prediction on" > "$work/one.log" 2>&1; then
+    fail "experiment_run.sh ran with $*"
+  else
+    rc=$?; [ "$rc" = 2 ] && grep -q -- "$message" "$work/one.log" \
+      || fail "experiment_run.sh $*: exit $rc, $(cat "$work/one.log")"
+  fi
+}
+# realtime in one process (lockstep only)
+run_refused '--mode realtime needs --transport dds' --mode realtime
 cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/rt/jobs.txt") \
   || fail "--mode realtime changed the seeds or the E draws"
 refused_args --latency-steps --mode realtime --latency-steps 3
@@ -108,13 +114,7 @@ grep -q '^  mode: realtime' "$work/th/scenario_base.yaml" || fail "--transport t
 refused_args --loss --loss 5
 refused_args --loss --transport two_hosts --loss 101
 refused_args --slurm --transport two_hosts --slurm
-if timeout 20 "$src/scripts/experiment_run.sh" run --out "$work/one" --bin /nonexistent --loss 5 \
-     pred_on 0 1 5500 "$work/rt/scenario_base.yaml" "--prediction on" > "$work/one.log" 2>&1; then
-  fail "experiment_run.sh took --loss in process"
-else
-  rc=$?; [ "$rc" = 2 ] && grep -q -- '--loss needs --transport two_hosts' "$work/one.log" \
-    || fail "experiment_run.sh --loss in_process: exit $rc, $(cat "$work/one.log")"
-fi
+run_refused '--loss needs --transport two_hosts' --loss 5
 
 # --collect on a sweep folder (three one-run batches, their summaries made up here) whose own
 # path holds underscores and digits: sweep.csv lists the latencies in numeric order
