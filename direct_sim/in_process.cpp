@@ -6,6 +6,7 @@
 #include "common/core/clock.h"
 #include "common/core/error.h"
 #include "common/core/interrupt.h"
+#include "common/core/lossy_link.h"
 #include "common/core/wire_pose.h"
 #include "common/scene/lockstep_targets.h"
 
@@ -28,9 +29,10 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs,
                            std::unique_ptr<ControllerLoop>& controller,
                            ControllerRecorder& controller_recorder, const RunConfig& run,
                            PatientRunInfo* pinfo, ControllerRunInfo* cinfo,
-                           const ControllerRestart& restart) {
+                           const ControllerRestart& restart, const LinkLoss& loss) {
   const int64_t steps = static_cast<int64_t>(std::llround(run.duration / patient.config().scene.time_step));
   LockstepTargets delay(run.latency_steps);
+  LossyLink frames_link(loss.percent, loss.seed, 1), targets_link(loss.percent, loss.seed, 2);
   const double start = MonotonicSeconds();
   int code = 0;
   try {
@@ -52,9 +54,12 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs,
         ++pinfo->takeovers;
       }
       outputs.OnFrame(patient);
-      if (std::optional<RobotTarget> target = Answer(*controller, controller_recorder, patient))
-        delay.Add(*target);
-      if (!delay.Ready(k)) ++pinfo->lockstep_timeouts;  // the controller gave no answer
+      if (!frames_link.Drop()) {
+        std::optional<RobotTarget> target = Answer(*controller, controller_recorder, patient);
+        if (target && !targets_link.Drop()) delay.Add(*target);
+      }
+      // the controller gave no answer (or the link lost the frame or the answer)
+      if (!delay.Ready(k)) ++pinfo->lockstep_timeouts;
       patient.Step(delay.TakeFor(k));
       patient.Prefetch();
       outputs.OnStep(patient, steps);
@@ -74,8 +79,12 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs,
     code = 1;
   }
   pinfo->wall_time = MonotonicSeconds() - start;
+  pinfo->link_loss_percent = loss.percent;
+  pinfo->frames_lost = frames_link.lost();
+  pinfo->targets_lost = targets_link.lost();
   if (code == 0) cinfo->ending = "direct_finished";
   cinfo->frames_received = controller->counts().observed;
+  cinfo->frames_missing = frames_link.lost();  // never reached the controller
   return code;
 }
 

@@ -29,6 +29,16 @@ struct ControllerRestart {
   std::function<std::unique_ptr<ControllerLoop>()> make;
 };
 
+/// For experiments (direct_sim run --in-process --loss PCT): each frame and each target is lost
+/// with probability percent / 100, drawn from `seed` (two streams), as a lossy network would
+/// lose them under the reliable keep-last-1 streams (LossyLink): a lost frame never reaches the
+/// controller, a lost target never reaches the robot, which keeps its command until a newer
+/// target arrives. 0: the link of every other lockstep run.
+struct LinkLoss {
+  double percent = 0.0;
+  uint64_t seed = 1;
+};
+
 /// Runs the insertion; fills both infos and returns the exit code (0 completed, 1 runtime
 /// failure: diverged, interrupted; 2 a controller model that cannot be built from the
 /// scenario). `controller` is the one running at the end.
@@ -36,6 +46,6 @@ int RunClosedLoopInProcess(PatientLoop& patient, PatientOutputs& outputs,
                            std::unique_ptr<ControllerLoop>& controller,
                            ControllerRecorder& controller_recorder, const RunConfig& run,
                            PatientRunInfo* patient_info, ControllerRunInfo* controller_info,
-                           const ControllerRestart& restart = {});
+                           const ControllerRestart& restart = {}, const LinkLoss& loss = {});
 
 }  // namespace nsim

@@ -9,6 +9,7 @@
 #include "common/core/cli.h"
 #include "common/core/error.h"
 #include "common/core/interrupt.h"
+#include "common/core/lossy_link.h"
 #include "common/mesh/gmsh_reader.h"
 #include "common/results/controller_recorder.h"
 #include "common/results/patient_recorder.h"
@@ -55,6 +56,9 @@ void DeclareOptions(CommandLine& cli) {
       .Option("restart-controller-at", "S",
               "with --in-process: replace the controller at simulated time S by a new one whose "
               "model catches up from that frame (a restart without the frame history)")
+      .Option("loss", "PCT",
+              "with --in-process: lose each frame and each target with probability PCT/100 "
+              "(seeded by --seed), as a lossy network under keep-last-1 streams would; 0..100")
       .Flag("no-video", "no view (no window, no video, no PNG)")
       .Flag("check",
             "only read and check the scenario, its meshes and the options, then exit (0: valid, "
@@ -134,13 +138,16 @@ int RunInProcess(const CommandLine& cli, const DirectScenario& scenario, Patient
     restart.at_step = std::llround(at / scenario.scene.time_step);
     restart.make = [&] { return std::make_unique<ControllerLoop>(inverse.LoopConfig(), mesh); };
   }
+  LinkLoss loss;
+  if (cli.Has("loss")) loss.percent = cli.GetDouble("loss");
+  loss.seed = scenario.random_seed;
   ControllerRunInfo cinfo;
   cinfo.scenario = inverse.source;
   cinfo.mesh = inverse.mesh_path;
   cinfo.scenario_hash = inverse.scenario_hash;
   cinfo.transport = "in_process";
   const int code = RunClosedLoopInProcess(patient, outputs, controller, recorder, scenario.run,
-                                          info, &cinfo, restart);
+                                          info, &cinfo, restart, loss);
   recorder.WriteSummary(*controller, cinfo);
   return code;
 }
@@ -159,6 +166,9 @@ int RunDirect(int argc, char** argv) {
     throw InputError("--in-process and --no-controller exclude each other");
   if (cli.Has("restart-controller-at") && !in_process)
     throw InputError("--restart-controller-at needs --in-process");
+  if (cli.Has("loss") && !in_process)
+    throw InputError("--loss needs --in-process (over DDS the network decides what is lost)");
+  if (cli.Has("loss")) LossyLink::CheckPercent(cli.GetDouble("loss"), "--loss");
   DirectScenario scenario = LoadDirectScenario(cli.GetString("config"));
   ApplyOptions(cli, &scenario);
   transport::TransportConfig tc = transport::TransportFromCli(cli);

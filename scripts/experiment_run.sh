@@ -21,6 +21,8 @@
 # veth pair, the two-machine DDS configuration (configs/dds/two_hosts.xml); --loss PCT drops
 # PCT % of the packets arriving in each namespace (default 0); the namespaces are this run's
 # (made and removed here) and the counts of dropped packets go to direct.log. Needs root.
+# --loss PCT with in_process: each frame and each target lost with probability PCT % (direct_sim
+# run --in-process --loss, seeded by SEED): the loss of a network, reproducible to the bit.
 # --mode realtime (dds, two_hosts): both loops on the wall clock, the latency whatever the machine
 # makes it (the controller measures it; --latency-steps does not apply); lockstep (default):
 # the latency of --latency-steps, simulated, results reproducible to the bit.
@@ -82,7 +84,7 @@ case "$transport" in in_process|dds|two_hosts) ;; *) die "--transport must be in
 case "$mode" in lockstep|realtime) ;; *) die "--mode must be lockstep or realtime, got '$mode'" ;; esac
 [ "$mode" = lockstep ] || [ "$transport" != in_process ] || die "--mode realtime needs --transport dds or two_hosts (in_process is lockstep only)"
 if [ -n "$loss" ]; then
-  [ "$transport" = two_hosts ] || die "--loss needs --transport two_hosts"
+  [ "$transport" != dds ] || die "--loss needs --transport two_hosts or in_process (over dds on this machine nothing is lost)"
   [[ "$loss" =~ ^[0-9]+$ ]] && [ "$loss" -le 100 ] || die "--loss must be 0..100 (percent), got '$loss'"
 fi
 [ "$transport" != two_hosts ] || [ "$(id -u)" -eq 0 ] || die "--transport two_hosts needs root (ip netns, nft)"
@@ -117,8 +119,9 @@ ctl=("${flags[@]}")
 [ -z "$delay" ] || ctl+=(--localization-delay "$delay")
 code=0
 if [ "$transport" = in_process ]; then
-  "$bin/direct_sim" run "${common[@]}" --in-process --out "$dir/direct" --controller-out "$dir/inverse" \
-    "${ctl[@]}" > "$dir/direct.log" 2>&1 &
+  lossy=(); [ -z "$loss" ] || lossy=(--loss "$loss")
+  "$bin/direct_sim" run "${common[@]}" --in-process "${lossy[@]}" --out "$dir/direct" \
+    --controller-out "$dir/inverse" "${ctl[@]}" > "$dir/direct.log" 2>&1 &
   pids=($!)
   wait "${pids[0]}" || code=$?
 else

@@ -59,7 +59,9 @@
 # How the runs are run: every run is one command, scripts/experiment_run.sh, on one core, and
 # GNU parallel (Debian `parallel`, installed by scripts/setup.sh) runs the job list side by side:
 #   --transport in_process  (default) direct_sim run --in-process: both loops in one process, no
-#                           DDS; the same results as the two-process lockstep run
+#                           DDS; the same results as the two-process lockstep run. --loss PCT:
+#                           each frame and each target lost with probability PCT % (seeded by
+#                           the run's seed; lockstep loss, reproducible to the bit)
 #   --transport dds         inverse_sim run + direct_sim run over DDS, each run on its own
 #                           partition exp<pid>_<setting>_<run>
 #   --transport two_hosts   the same two processes on two "machines" (scripts/two_hosts.sh): each
@@ -176,7 +178,7 @@ if [ -n "$hosts" ]; then
 fi
 [ -z "$hosts" ] || [ "$slurm" = 0 ] || die "--hosts and --slurm exclude each other"
 if [ -n "$loss" ]; then
-  [ "$transport" = two_hosts ] || die "--loss needs --transport two_hosts"
+  [ "$transport" != dds ] || die "--loss needs --transport two_hosts or in_process (over dds on this machine nothing is lost)"
   [[ "$loss" =~ ^[0-9]+$ ]] && [ "$loss" -le 100 ] || die "--loss must be 0..100 (percent), got '$loss'"
 fi
 if [ "$transport" = two_hosts ]; then

@@ -210,6 +210,9 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
                   {"foreign_by_writer", info.foreign_by_writer},
                   {"hold_steps", hold_steps_},
                   {"lockstep_timeouts", info.lockstep_timeouts}};
+  j["link_loss"] = {{"percent", info.link_loss_percent},
+                    {"frames_lost", info.frames_lost},
+                    {"targets_lost", info.targets_lost}};
   j["controller_lost"] = info.controller_lost_time.has_value();
   j["controller_losses"] = info.controller_losses;
   j["controller_returns"] = info.controller_returns;

@@ -40,6 +40,10 @@ struct PatientRunInfo {
   double wall_time = 0.0;      ///< (s)
   std::vector<double> latency_ms;  ///< per received target: frame sent -> target received (ms)
   uint64_t lockstep_timeouts = 0;  ///< lockstep steps that went on without the awaited answer
+  /// In-process lockstep with a lossy link (direct_sim run --in-process --loss PCT): the loss
+  /// asked for, and the frames and targets it lost.
+  double link_loss_percent = 0.0;
+  uint64_t frames_lost = 0, targets_lost = 0;
   uint64_t transport_invalid = 0;  ///< targets dropped by the transport (malformed)
   /// targets from a process other than the robot's owner (the controller bound at the start),
   /// rejected before the gate, in all and by writer (hex instance handle)

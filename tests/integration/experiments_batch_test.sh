@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # scripts/experiments.sh's batch description (--dry-run: no simulation runs): the per-run draws
 # of the breathing seed and the patient's Young's modulus, --e-spread, --marker-noise, --mode
-# realtime, --transport two_hosts with --loss, and their bad values; and --collect's order of a
-# sweep's latencies.
+# realtime, --transport two_hosts and in_process with --loss, and their bad values; and
+# --collect's order of a sweep's latencies.
 # Usage: experiments_batch_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: experiments_batch_test.sh SOURCE_DIR}"
@@ -105,16 +105,22 @@ refused_args --transport --mode realtime --transport in_process
 refused --mode fast ''
 
 # --transport two_hosts: the jobs' command carries it and the loss, batch.txt records the loss;
-# refused: a loss without two_hosts or out of 0..100, two_hosts with --slurm
+# refused: a loss over dds (loopback loses nothing) or out of 0..100, two_hosts with --slurm
 batch "$work/th" --transport two_hosts --loss 5 --mode realtime || fail "--transport two_hosts: exit $? ($(cat "$work/th.log"))"
 grep -q 'experiment_run.sh run .*--transport two_hosts .*--loss 5 ' "$work/th.log" \
   || fail "--transport two_hosts --loss 5: the jobs' command lacks them"
 grep -qx 'loss_percent 5' "$work/th/batch.txt" || fail "--loss 5: batch.txt lacks 'loss_percent 5'"
 grep -q '^  mode: realtime' "$work/th/scenario_base.yaml" || fail "--transport two_hosts --mode realtime: not realtime"
-refused_args --loss --loss 5
+refused_args --loss --transport dds --loss 5
 refused_args --loss --transport two_hosts --loss 101
+refused_args --loss --loss -3
 refused_args --slurm --transport two_hosts --slurm
-run_refused '--loss needs --transport two_hosts' --loss 5
+run_refused '--loss needs --transport two_hosts or in_process' --transport dds --loss 5
+# in one process: the seeded lockstep loss (direct_sim run --in-process --loss)
+batch "$work/ip" --loss 5 || fail "--loss 5 in one process: exit $? ($(cat "$work/ip.log"))"
+grep -q 'experiment_run.sh run .*--transport in_process .*--loss 5 ' "$work/ip.log" \
+  || fail "--loss 5 in one process: the jobs' command lacks it"
+grep -qx 'loss_percent 5' "$work/ip/batch.txt" || fail "--loss 5 in one process: batch.txt lacks 'loss_percent 5'"
 
 # --collect on a sweep folder (three one-run batches, their summaries made up here) whose own
 # path holds underscores and digits: sweep.csv lists the latencies in numeric order
