@@ -1,5 +1,7 @@
 // Robot and controller kernels: iiwa forward kinematics + tool Jacobian, IK (near seed, and
-// from a far random seed), the Cartesian interpolator step, and the regularized inverses of the
+// from a far random seed), the Cartesian interpolator step, the controller's forecast of the
+// robot over the commands in flight (MotionForecast, `prediction.model_pose: expected`/`auto`:
+// 1, 2, 5 and 10 commands, iiwa and Cartesian robot), and the regularized inverses of the
 // simulation Jacobian (6 x 6 Cartesian phase 2, 5 x 7 joint phase 3). Measure on one core:
 //   taskset -c 0 robot_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
@@ -12,6 +14,7 @@
 #include "common/robot/cartesian_robot.h"
 #include "common/robot/iiwa14.h"
 #include "common/robot/iiwa14_ik.h"
+#include "common/robot/motion_forecast.h"
 
 namespace nsim {
 namespace {
@@ -93,6 +96,43 @@ void BM_CartesianRobotStep(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_CartesianRobotStep);
+
+// the forecast the controller runs once a frame: the robot moving (two measured states 20 ms
+// apart), then range(0) commands in flight, each 1 mm and 0.5 mrad a joint further, one step each
+void ForecastBench(benchmark::State& state, bool joints) {
+  constexpr double kDt = 0.02;
+  MotionForecast forecast{MotionForecastConfig()};
+  const Iiwa14Model iiwa;
+  const Vector7d q0 = iiwa.CalcMidRange();
+  const Vector7d dq = Vector7d::Constant(5e-4);
+  auto joint_vector = [](const Vector7d& q) { return std::vector<double>(q.data(), q.data() + 7); };
+  const Eigen::Isometry3d X0 = iiwa.CalcFlangePoseInBase(q0),
+                                X1 = iiwa.CalcFlangePoseInBase(q0 + dq);
+  forecast.Observe(0.0, X0, joints ? joint_vector(q0) : std::vector<double>());
+  forecast.Observe(kDt, X1, joints ? joint_vector(q0 + dq) : std::vector<double>());
+  const int n = static_cast<int>(state.range(0));
+  std::vector<Vector7d> q_commands;
+  std::vector<Eigen::Isometry3d> X_commands;
+  for (int i = 0; i < n; ++i) {
+    q_commands.push_back(q0 + (i + 2) * dq);
+    Eigen::Isometry3d X = X1;
+    X.translation() += Eigen::Vector3d(1e-3 * (i + 1), 0.0, 0.0);
+    X_commands.push_back(X);
+  }
+  for (auto _ : state) {
+    if (joints) {
+      const Vector7d q = forecast.ForecastJoints(q_commands, kDt);
+      benchmark::DoNotOptimize(q.data());
+    } else {
+      const Eigen::Isometry3d X = forecast.ForecastPose(X_commands, kDt);
+      benchmark::DoNotOptimize(X.data());
+    }
+  }
+}
+void BM_ForecastIiwa(benchmark::State& state) { ForecastBench(state, true); }
+void BM_ForecastCartesian(benchmark::State& state) { ForecastBench(state, false); }
+BENCHMARK(BM_ForecastIiwa)->Arg(1)->Arg(2)->Arg(5)->Arg(10);
+BENCHMARK(BM_ForecastCartesian)->Arg(1)->Arg(2)->Arg(5)->Arg(10);
 
 void InverseBench(benchmark::State& state, bool tikhonov) {
   const int m = static_cast<int>(state.range(0));
