@@ -79,6 +79,8 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
           {"tilt_limited", n.tilt_limited},
           // the preparation phase (prediction.preparation): frames answered with the hold
           {"preparation_frames", n.prepared},
+          // commands the robot did not carry out when due (the forecast pose runs only: lost)
+          {"unapplied_targets", n.unapplied_targets},
           {"last_rejection", n.last_rejection},
           {"timings",
            {{"model_step", Timing(loop.model_time())},

@@ -91,8 +91,12 @@ bool ControllerLoop::Accept(const SensorFrame& frame) {
   frame_times_.emplace_back(frame.stamp.seq, frame.stamp.sim_time);
   if (frame_times_.size() > kFrameTimesKept) frame_times_.pop_front();
   MeasureLatency(frame);
+  if (observed_any_ && frame.stamp.seq > last_observed_seq_)
+    frame_period_ = (frame.stamp.sim_time - last_observed_time_) /
+                    static_cast<double>(frame.stamp.seq - last_observed_seq_);
   observed_any_ = true;
   last_observed_time_ = frame.stamp.sim_time;
+  last_observed_seq_ = frame.stamp.seq;
   ++counts_.observed;
   return true;
 }
@@ -104,11 +108,23 @@ void ControllerLoop::MeasureLatency(const SensorFrame& frame) {
     if (obeyed_) last_target_.reset();
     obeyed_ = false;
     in_flight_.clear();
+    applied_target_.reset();
     return;
   }
   obeyed_ = true;
-  while (!in_flight_.empty() && in_flight_.front().answers_seq <= frame.applied_seq)
+  while (!in_flight_.empty() && in_flight_.front().answers_seq <= frame.applied_seq) {
+    applied_target_ = in_flight_.front();
     in_flight_.pop_front();
+  }
+  // a command the robot should have carried out by now (d + 1 frames after the frame it
+  // answers) and did not never reached it, and a newer one replaces it: the forecast skips it
+  if (!recent_delays_.empty() && frame.stamp.seq > static_cast<uint64_t>(latency_steps_ + 1)) {
+    const uint64_t due = frame.stamp.seq - static_cast<uint64_t>(latency_steps_ + 1);
+    while (!in_flight_.empty() && in_flight_.front().answers_seq <= due) {
+      in_flight_.pop_front();
+      ++counts_.unapplied_targets;
+    }
+  }
   for (auto it = frame_times_.rbegin(); it != frame_times_.rend(); ++it) {
     if (it->first != frame.applied_seq) continue;
     const double delay = frame.stamp.sim_time - it->second;
@@ -129,9 +145,11 @@ double ControllerLoop::CalcHorizon(double t) {
   const double loop = configured - config_.horizon.localization_delay;
   const double measured = Median({recent_delays_.begin(), recent_delays_.end()});
   const double horizon = configured + std::max(0.0, measured - loop);
-  // the delay spans the loop period and d frames of latency ((d + 1) periods in lockstep)
-  if (loop > 0) frame_period_ = loop;
-  if (loop > 0) latency_steps_ = std::max(0, static_cast<int>(std::lround(measured / loop)) - 1);
+  // the delay spans the frame period and d frames of latency ((d + 1) periods in lockstep),
+  // counted in the sensor's periods: the loop time grows with every frame lost or skipped
+  const double period = frame_period_ > 0 ? frame_period_ : loop;
+  if (period > 0)
+    latency_steps_ = std::max(0, static_cast<int>(std::lround(measured / period)) - 1);
   if (config_.search_lead_auto && predictor_ && loop > 0) {
     const int lead = std::max(1, static_cast<int>(std::lround(horizon / loop)));
     if (lead != search_lead_) predictor_->SetSearchLead(lead);
@@ -160,7 +178,7 @@ bool ControllerLoop::UsesForecast() const {
          (config_.model_pose == ModelPose::kAuto && config_.control.dof == SteeringDof::kJoint7);
 }
 
-void ControllerLoop::SetModelPose(SteeringInput* input) const {
+void ControllerLoop::SetModelPose(uint64_t seq, SteeringInput* input) const {
   const ModelPose pose = ResolvedModelPose();
   if (pose == ModelPose::kMeasured) return;
   const bool joints = input->q_commanded.has_value();
@@ -171,18 +189,41 @@ void ControllerLoop::SetModelPose(SteeringInput* input) const {
     else input->X_WE = *input->X_WE_commanded;
     return;
   }
+  const std::vector<const RobotTarget*> slots = CommandSlots(seq);
   if (joints) {
     std::vector<Vector7d> commands;
-    for (const RobotTarget& t : in_flight_)
-      if (t.mode == TargetMode::kJoint && t.q.size() == 7)
-        commands.push_back(Eigen::Map<const Vector7d>(t.q.data()));
+    for (const RobotTarget* t : slots)
+      if (t->mode == TargetMode::kJoint && t->q.size() == 7)
+        commands.push_back(Eigen::Map<const Vector7d>(t->q.data()));
     input->q = forecast_.ForecastJoints(commands, frame_period_);
   } else {
     std::vector<Eigen::Isometry3d> commands;
-    for (const RobotTarget& t : in_flight_)
-      if (t.mode == TargetMode::kCartesian) commands.push_back(t.X_WE);
+    for (const RobotTarget* t : slots)
+      if (t->mode == TargetMode::kCartesian) commands.push_back(t->X_WE);
     input->X_WE = forecast_.ForecastPose(commands, frame_period_);
   }
+}
+
+std::vector<const RobotTarget*> ControllerLoop::CommandSlots(uint64_t seq) const {
+  std::vector<const RobotTarget*> slots;
+  if (!applied_target_) {  // the robot's own command not known yet: the commands in order
+    for (const RobotTarget& t : in_flight_) slots.push_back(&t);
+    return slots;
+  }
+  // the d steps from frame seq to the frame the new command takes effect: step seq + i
+  // executes the newest command answering a frame <= seq + i - d (LockstepTargets; over DDS
+  // the same at the measured latency), else keeps the one before: a frame lost on the way has
+  // no answer, and the robot keeps its command for that step
+  const RobotTarget* command = &*applied_target_;
+  auto next = in_flight_.begin();
+  const int d = latency_steps_;
+  for (int i = 0; i < d; ++i) {
+    const int64_t bound = static_cast<int64_t>(seq) + i - d;
+    while (next != in_flight_.end() && static_cast<int64_t>(next->answers_seq) <= bound)
+      command = &*next++;
+    slots.push_back(command);
+  }
+  return slots;
 }
 
 void ControllerLoop::Observe(const SensorFrame& frame) { Accept(frame); }
@@ -263,7 +304,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
       }
       score_.AddPrediction(t + r.horizon, input.p_WM, frame.p_WM);
       // the needle where the robot will be when the markers are where they are predicted
-      SetModelPose(&input);
+      SetModelPose(frame.stamp.seq, &input);
     } else {
       input.p_WM = frame.p_WM;
     }

@@ -158,6 +158,10 @@ struct ControllerCounts {
   uint64_t rejected_frames = 0;  ///< frames refused (malformed, out of order, no robot state)
   uint64_t observed = 0;         ///< frames fed to the predictor
   uint64_t prepared = 0;         ///< frames answered with the hold of the preparation phase
+  /// Targets the robot did not carry out when due (d + 1 frames after the frame they answer,
+  /// d the measured latency): lost on the way, or late; the robot's forecast skips them.
+  /// Counted while the model uses the forecast pose (UsesForecast), which keeps the commands.
+  uint64_t unapplied_targets = 0;
   std::string last_rejection;
 };
 
@@ -220,8 +224,11 @@ class ControllerLoop {
   double CalcHorizon(double t);
   // the commands in flight for the law (none when the robot stopped obeying)
   void SetCommanded(SteeringInput* input) const;
-  // the model's needle pose while it registers to predicted markers (config_.model_pose)
-  void SetModelPose(SteeringInput* input) const;
+  // the model's needle pose, answering frame seq, while it registers to predicted markers
+  // (config_.model_pose)
+  void SetModelPose(uint64_t seq, SteeringInput* input) const;
+  // the command each of the d steps until frame seq's answer takes effect executes
+  std::vector<const RobotTarget*> CommandSlots(uint64_t seq) const;
   // config_.model_pose with kAuto resolved for the robot and the measured latency
   ModelPose ResolvedModelPose() const;
   // whether the model pose may be the forecast (the forecast's state and the commands in
@@ -248,6 +255,7 @@ class ControllerLoop {
   TimingStat model_time_, jacobian_time_, total_time_, loop_period_;
   double last_answer_wall_ = -1.0;
   double last_observed_time_ = -1.0;
+  uint64_t last_observed_seq_ = 0;
   bool observed_any_ = false;
   int phase_ = 0;
   std::vector<Eigen::Vector3d> fit_now_;
@@ -258,11 +266,14 @@ class ControllerLoop {
   // ModelPose::kExpected only: the commands sent and not yet executed, in order, and the
   // robot's motion from its measured states (neither is kept for the other poses)
   std::deque<RobotTarget> in_flight_;
+  std::optional<RobotTarget> applied_target_;  // the newest of them the robot executed
   MotionForecast forecast_;
-  double frame_period_ = 0.0;               // the loop time of eq. 4.8-4.9 (s), 0 = not yet
+  // the sensor's frame period, from the time and sequence numbers of consecutive received
+  // frames (s), 0 = not yet: the robot's step, whatever frames were lost or skipped
+  double frame_period_ = 0.0;
   bool obeyed_ = false;                     // the robot executed one of our commands
   int search_lead_ = 0;
-  int latency_steps_ = 0;  // the measured latency in frames (CalcHorizon), 0 = not yet
+  int latency_steps_ = 0;  // the measured latency in frame periods (CalcHorizon), 0 = not yet
 };
 
 }  // namespace nsim

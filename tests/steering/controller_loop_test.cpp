@@ -142,7 +142,16 @@ TEST(ControllerLoopTest, PredictedModelPutsTheNeedleAtTheCommandedPose) {
 // Both robots: the Cartesian one (its limits from the scenario) and the iiwa's joints. `auto`
 // resolves to one of the two: the forecast for the iiwa up to kAutoExpectedSteps of measured
 // latency, the last command beyond it and for the Cartesian robot (to_forecast says which).
-void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast) {
+// lose_every > 0: every lose_every-th target is lost on the way (the patient never gets it and
+// keeps its command, as under keep-last-1 streams), and every lose_every-th frame, at another
+// phase (the controller never sees it, so nothing answers it); the forecast, which skips a
+// command once it is overdue and lets the robot keep its command for the step of a frame
+// nobody answered, is still exact at every frame whose commands in flight arrived (a loss
+// among them is unknowable) and whose previous frame arrived (the robot's velocity over two
+// steps is their mean), in particular right after a lost target and over a lost frame; the
+// measured latency stays d frames (the loop time grows with each lost frame, the sensor's
+// period not).
+void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast, int lose_every = 0) {
   DirectScenario direct = LoadDirectScenario(kScenario);
   if (iiwa) {  // the robot and its gate's joint limits (the loader's, for robot.type: iiwa)
     direct.robot.kind = RobotKind::kIiwa;
@@ -161,12 +170,23 @@ void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast) {
   const double length = inverse.loop.model.needle.length;
   LockstepTargets delay(d);
   std::vector<Eigen::Vector3d> measured_tips, model_tips, commanded_tips;
-  std::vector<bool> forecast;
+  std::vector<bool> forecast, lost, frame_lost;
   std::optional<RobotTarget> last;
-  for (int k = 0; k < 80; ++k) {
+  int wrong_latency = 0;
+  const int frames = lose_every > 0 ? 120 : 80;  // the losses leave fewer frames to compare
+  for (int k = 0; k < frames; ++k) {
     const SensorFrame frame = patient.frame();
     ASSERT_EQ(frame.q.size(), iiwa ? 7u : 0u);
     measured_tips.push_back(CalcTipPosition(frame.X_WE, length));
+    frame_lost.push_back(lose_every > 0 && k > 0 && k % lose_every == 0);
+    if (frame_lost.back()) {  // nothing answers it; the robot keeps its command
+      model_tips.push_back(Eigen::Vector3d::Constant(NAN));
+      forecast.push_back(false);
+      commanded_tips.push_back(measured_tips.back());
+      lost.push_back(false);
+      patient.Step(delay.TakeFor(k));
+      continue;
+    }
     const std::optional<RobotTarget> target = controller.Step(frame);
     ASSERT_TRUE(target.has_value()) << controller.counts().last_rejection;
     ASSERT_EQ(target->mode, iiwa ? TargetMode::kJoint : TargetMode::kCartesian);
@@ -175,15 +195,28 @@ void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast) {
     forecast.push_back(controller.last_record().predicted && k > 1 &&
                        frame.applied_seq != SensorFrame::kNoTarget &&
                        controller.last_record().latency_steps == d);
+    wrong_latency += controller.last_record().predicted && k > 10 &&
+                     controller.last_record().latency_steps != d;
     commanded_tips.push_back(last ? CalcTipPosition(last->X_WE, length) : measured_tips.back());
     last = target;
-    delay.Add(*target);
+    lost.push_back(lose_every > 0 && k % lose_every == lose_every / 2);
+    if (!lost.back()) delay.Add(*target);
     patient.Step(delay.TakeFor(k));
   }
-  int compared = 0;
+  int compared = 0, after_loss = 0, after_lost_frame = 0;
   double largest_lag = 0.0;
   for (size_t k = 0; k + d < model_tips.size(); ++k) {
     if (!forecast[k]) continue;
+    bool in_flight_lost = false;  // a command in flight at frame k lost (k - d .. k - 1)
+    for (size_t j = k >= static_cast<size_t>(d) ? k - d : 0; j < k; ++j)
+      in_flight_lost = in_flight_lost || lost[j];
+    // right after a lost frame the robot's velocity is the mean over two steps: not exact
+    if (in_flight_lost || (k > 0 && frame_lost[k - 1])) continue;
+    after_loss += k >= static_cast<size_t>(d) + 1 && lost[k - d - 1] ? 1 : 0;
+    bool frame_in_window = false;  // a step of the forecast kept the command (a lost frame)
+    for (size_t j = k >= static_cast<size_t>(d) ? k - d : 0; j < k; ++j)
+      frame_in_window = frame_in_window || frame_lost[j];
+    after_lost_frame += frame_in_window ? 1 : 0;
     if (to_forecast)
       EXPECT_LT((model_tips[k] - measured_tips[k + d]).norm(), 1e-9) << k;
     else
@@ -196,6 +229,12 @@ void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast) {
               largest_lag * 1e3);
   EXPECT_GE(compared, 20);
   EXPECT_GT(largest_lag, 1e-5) << "the robot kept up with every command: nothing forecast";
+  EXPECT_EQ(wrong_latency, 0) << "the measured latency left " << d << " frames";
+  if (lose_every > 0) {
+    EXPECT_GE(after_loss, 3) << "no forecast right after a lost target";
+    if (d > 1) EXPECT_GE(after_lost_frame, 3) << "no forecast over a lost frame";
+    EXPECT_GE(controller.counts().unapplied_targets, 3u);
+  }
 }
 
 TEST(ControllerLoopTest, ExpectedModelPoseIsWhereTheCartesianRobotWillBe) {
@@ -204,6 +243,12 @@ TEST(ControllerLoopTest, ExpectedModelPoseIsWhereTheCartesianRobotWillBe) {
 
 TEST(ControllerLoopTest, ExpectedModelPoseIsWhereTheIiwaWillBe) {
   CheckModelPose(true, ModelPose::kExpected, 3, true);
+}
+
+TEST(ControllerLoopTest, ExpectedModelPoseSkipsTheTargetsTheRobotNeverGot) {
+  CheckModelPose(true, ModelPose::kExpected, 1, true, 7);
+  CheckModelPose(true, ModelPose::kExpected, 3, true, 9);
+  CheckModelPose(false, ModelPose::kExpected, 2, true, 8);
 }
 
 // `auto`: the iiwa's forecast at 1 and kAutoExpectedSteps steps, its last command beyond; the
