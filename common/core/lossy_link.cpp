@@ -16,7 +16,7 @@ std::mt19937_64 MakeGenerator(uint64_t seed, uint64_t stream) {
 }  // namespace
 
 LossyLink::LossyLink(double percent, uint64_t seed, uint64_t stream, const char* name)
-    : percent_(percent), probability_(percent / 100.0), rng_(MakeGenerator(seed, stream)) {
+    : probability_(percent / 100.0), rng_(MakeGenerator(seed, stream)) {
   CheckPercent(percent, name);
 }
 

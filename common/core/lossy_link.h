@@ -22,12 +22,10 @@ class LossyLink {
   /// True when the next message is lost (counted).
   bool Drop();
 
-  double percent() const { return percent_; }
   uint64_t sent() const { return sent_; }  ///< messages offered to the link
   uint64_t lost() const { return lost_; }  ///< of them, lost
 
  private:
-  double percent_;
   double probability_;
   std::mt19937_64 rng_;
   uint64_t sent_ = 0, lost_ = 0;
