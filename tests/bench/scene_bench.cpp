@@ -19,7 +19,11 @@
 // swap_step_ms). After each step the sequences do the work between steps as direct_sim does
 // (PatientScene::Prefetch: the compliance columns of the nodes the needle and the ribs will
 // reach), timed apart: prefetch_p50_ms / prefetch_p99_ms / prefetch_max_ms; .../NoPrefetch
-// leaves it to the steps.
+// leaves it to the steps. DirectSceneSequence/NeedleHeld/...: the same 400 steps with the
+// needle held at the end of the plan (the tip at the target; the closed loop's final phase:
+// breathing, the needle still), after inserting it there untimed; .../Threshold3 with the
+// liver's refresh asked at more than 3 PCG iterations instead of the scenario's 5 (the choice
+// of 2026-12-06).
 
 #include <benchmark/benchmark.h>
 
@@ -53,10 +57,10 @@ struct Fixture {
   // slice: < 0 keeps the scenario's refactor_slice (s, 0 in the default scenario)
   // hold_steps: < 0 keeps the scenario's refactor_hold_steps
   // prefetch: false sets prefetch_ahead and prefetch_rib_margin to 0 (PatientScene::Prefetch
-  // does nothing)
+  // does nothing); refresh_threshold: 0 keeps the scenario's refactor_iteration_threshold
   explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0,
                    FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
-                   bool prefetch = true, int hold_steps = -1) {
+                   bool prefetch = true, int hold_steps = -1, int refresh_threshold = 0) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
@@ -66,6 +70,8 @@ struct Fixture {
     scenario.scene.liver.refactor_adoption = adoption;
     if (slice >= 0.0) scenario.scene.liver.refactor_slice = slice;
     if (hold_steps >= 0) scenario.scene.liver.refactor_hold_steps = hold_steps;
+    if (refresh_threshold > 0)
+      scenario.scene.liver.refactor_iteration_threshold = refresh_threshold;
     if (!prefetch) scenario.scene.prefetch_ahead = scenario.scene.prefetch_rib_margin = 0.0;
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
@@ -156,11 +162,15 @@ BENCHMARK(BM_DirectSceneFirstStep)
 void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
                          bool paced = false, int adopt_delay = 0,
                          FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
-                         bool prefetch = true, int fifo_priority = 0, int hold_steps = -1) {
+                         bool prefetch = true, int fifo_priority = 0, int hold_steps = -1,
+                         bool needle_held = false, int refresh_threshold = 0) {
   Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption, slice,
-            prefetch, hold_steps);
-  while (!f.scene->GetTissueStatus(kLiverTissue).punctured ||
-         f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
+            prefetch, hold_steps, refresh_threshold);
+  // held: to the end of the plan (the loop below then keeps the needle there); else 1 cm into
+  // the liver (the loop advances it)
+  while (needle_held ? f.s < f.plan.total_travel()
+                     : !f.scene->GetTissueStatus(kLiverTissue).punctured ||
+                           f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
   // the loop's thread in SCHED_FIFO (direct_sim's run.rt_priority) for the timed steps; the
   // refresh worker, started with the scene, stays in SCHED_IDLE
@@ -281,6 +291,20 @@ void RegisterSequences() {
   // one CPU (taskset -c N) the first spreads each refresh over the steps, the second leaves the
   // worker only what the steps leave, little when they run back to back; on two CPUs the two
   // are the same (the slice is not used)
+  // the needle held at the target while the liver breathes (the closed loop's final phase), back
+  // to back with scheduled adoption (a lockstep run) and paced with adoption when ready (a
+  // realtime direct_sim), each with the scenario's refresh threshold and with 3
+  for (int threshold : {0, 3})
+    for (bool paced : {false, true}) {
+      const std::string name = std::string("DirectSceneSequence/NeedleHeld/") +
+                               (paced ? "Paced/Rest/2660/WhenReady" : "Background/Rest/2660") +
+                               (threshold > 0 ? "/Threshold" + std::to_string(threshold) : "");
+      benchmark::RegisterBenchmark(name.c_str(), [paced, threshold](benchmark::State& s) {
+        DirectSceneSequence(s, true, true, paced, 0,
+                            paced ? FactorAdoption::kWhenReady : FactorAdoption::kScheduled, -1.0,
+                            true, 0, -1, true, threshold);
+      })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+    }
   // the same without the work between steps (prefetch_ahead and prefetch_rib_margin 0): the
   // steps then solve the compliance columns of the nodes the needle and the ribs reach
   benchmark::RegisterBenchmark("DirectSceneSequence/Background/Rest/2660/WhenReady/NoPrefetch",
