@@ -46,33 +46,47 @@
 namespace nsim {
 namespace {
 
+// What a step-time sequence changes in the default scenario (DirectSceneSequence)
+struct SequenceOptions {
+  bool background = true;  // patient.liver.background_refactor
+  bool rest_compliance = true;  // patient.constraint_compliance: rest (else last_factor)
+  bool paced = false;  // one step per time step of wall clock (realtime), else back to back
+  int adopt_delay = 0;  // > 0: refactor_adopt_delay (0 keeps the scenario's)
+  FactorAdoption adoption = FactorAdoption::kScheduled;
+  double slice = -1.0;  // >= 0: refactor_slice (s; < 0 keeps the scenario's, 0)
+  bool prefetch = true;  // false: prefetch_ahead and prefetch_rib_margin 0 (Prefetch does nothing)
+  int fifo_priority = 0;  // > 0: the loop's thread in SCHED_FIFO at this priority
+  int hold_steps = -1;  // >= 0: refactor_hold_steps (< 0 keeps the scenario's)
+  bool needle_held = false;  // the needle held at the end of the plan, else advancing
+  int refresh_threshold = 0;  // > 0: refactor_iteration_threshold (0 keeps the scenario's)
+
+  // the scenario's keys this sequence sets
+  void Apply(DirectScenario& scenario) const {
+    PatientSceneConfig& scene = scenario.scene;
+    scene.liver.background_refactor = background;
+    scene.liver_rest_compliance = rest_compliance;
+    if (adopt_delay > 0) scene.liver.refactor_adopt_delay = adopt_delay;
+    scene.liver.refactor_adoption = adoption;
+    if (slice >= 0.0) scene.liver.refactor_slice = slice;
+    if (hold_steps >= 0) scene.liver.refactor_hold_steps = hold_steps;
+    if (refresh_threshold > 0) scene.liver.refactor_iteration_threshold = refresh_threshold;
+    if (!prefetch) scene.prefetch_ahead = scene.prefetch_rib_margin = 0.0;
+  }
+};
+
 struct Fixture {
   DirectScenario scenario;
   InsertionPlan plan;
   std::unique_ptr<PatientScene> scene;
   double s = 0.0;  // tip travel along the plan (m)
 
-  // background / rest_compliance: -1 keeps the scenario's value, 0 / 1 sets it; adopt_delay:
-  // 0 keeps the scenario's refactor_adopt_delay; the refreshes are adopted as `adoption` says;
-  // slice: < 0 keeps the scenario's refactor_slice (s, 0 in the default scenario)
-  // hold_steps: < 0 keeps the scenario's refactor_hold_steps
-  // prefetch: false sets prefetch_ahead and prefetch_rib_margin to 0 (PatientScene::Prefetch
-  // does nothing); refresh_threshold: 0 keeps the scenario's refactor_iteration_threshold
-  explicit Fixture(int nodes, int background = -1, int rest_compliance = -1, int adopt_delay = 0,
-                   FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
-                   bool prefetch = true, int hold_steps = -1, int refresh_threshold = 0) {
+  // the default scenario, its refreshes adopted on schedule, with the sequence's keys if given
+  explicit Fixture(int nodes, const SequenceOptions* options = nullptr) {
     scenario = LoadDirectScenario(std::string(NSIM_SOURCE_DIR) +
                                   "/configs/scenarios/liver_breathing.yaml");
     if (nodes != 2660) throw std::runtime_error("only the 2660-node liver is configured");
-    if (background >= 0) scenario.scene.liver.background_refactor = background == 1;
-    if (rest_compliance >= 0) scenario.scene.liver_rest_compliance = rest_compliance == 1;
-    if (adopt_delay > 0) scenario.scene.liver.refactor_adopt_delay = adopt_delay;
-    scenario.scene.liver.refactor_adoption = adoption;
-    if (slice >= 0.0) scenario.scene.liver.refactor_slice = slice;
-    if (hold_steps >= 0) scenario.scene.liver.refactor_hold_steps = hold_steps;
-    if (refresh_threshold > 0)
-      scenario.scene.liver.refactor_iteration_threshold = refresh_threshold;
-    if (!prefetch) scenario.scene.prefetch_ahead = scenario.scene.prefetch_rib_margin = 0.0;
+    scenario.scene.liver.refactor_adoption = FactorAdoption::kScheduled;
+    if (options) options->Apply(scenario);
     const RigidNeedleModel needle(scenario.scene.needle.geometry());
     plan = MakeInsertionPlan(scenario.scene.entry_W, scenario.scene.target_W, needle,
                              scenario.insertion.approach_distance);
@@ -159,22 +173,17 @@ BENCHMARK(BM_DirectSceneFirstStep)
 // the step-time distribution over 400 steps with the needle in the liver (Iterations = steps)
 // paced: one step per time step of wall clock (sleeping until the next period, as realtime mode
 // does), so that the background refresh can use the time the steps leave
-void DirectSceneSequence(benchmark::State& state, bool background, bool rest_compliance,
-                         bool paced = false, int adopt_delay = 0,
-                         FactorAdoption adoption = FactorAdoption::kScheduled, double slice = -1.0,
-                         bool prefetch = true, int fifo_priority = 0, int hold_steps = -1,
-                         bool needle_held = false, int refresh_threshold = 0) {
-  Fixture f(2660, background ? 1 : 0, rest_compliance ? 1 : 0, adopt_delay, adoption, slice,
-            prefetch, hold_steps, refresh_threshold);
+void DirectSceneSequence(benchmark::State& state, const SequenceOptions& o) {
+  Fixture f(2660, &o);
   // held: to the end of the plan (the loop below then keeps the needle there); else 1 cm into
   // the liver (the loop advances it)
-  while (needle_held ? f.s < f.plan.total_travel()
+  while (o.needle_held ? f.s < f.plan.total_travel()
                      : !f.scene->GetTissueStatus(kLiverTissue).punctured ||
                            f.scene->GetTissueStatus(kLiverTissue).depth < 0.01)
     f.Step();
   // the loop's thread in SCHED_FIFO (direct_sim's run.rt_priority) for the timed steps; the
   // refresh worker, started with the scene, stays in SCHED_IDLE
-  const FifoScope fifo(fifo_priority);
+  const FifoScope fifo(o.fifo_priority);
   if (!fifo.error().empty()) {
     state.SkipWithError(fifo.error().c_str());
     return;
@@ -189,7 +198,7 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
       std::chrono::duration<double>(f.scenario.scene.time_step));
   auto next = std::chrono::steady_clock::now();
   for (auto _ : state) {
-    if (paced) {
+    if (o.paced) {
       next += period;
       std::this_thread::sleep_until(next);
     }
@@ -241,84 +250,82 @@ void DirectSceneSequence(benchmark::State& state, bool background, bool rest_com
   state.counters["liver_depth_mm"] = 1e3 * f.scene->GetTissueStatus(kLiverTissue).depth;
 }
 
+// registers DirectSceneSequence/<name> with these options (400 steps, wall clock)
+void RegisterSequence(const std::string& name, const SequenceOptions& options) {
+  benchmark::RegisterBenchmark(("DirectSceneSequence/" + name).c_str(),
+                               [options](benchmark::State& s) { DirectSceneSequence(s, options); })
+      ->Unit(benchmark::kMillisecond)
+      ->Iterations(400)
+      ->UseRealTime();
+}
+
 void RegisterSequences() {
   for (bool rest : {true, false})
     for (bool background : {false, true}) {
-      const std::string name = std::string("DirectSceneSequence/") +
-                               (background ? "Background" : "InStep") + "/" +
-                               (rest ? "Rest" : "LastFactor") + "/2660";
-      benchmark::RegisterBenchmark(name.c_str(), [background, rest](benchmark::State& s) {
-        DirectSceneSequence(s, background, rest);
-      })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+      SequenceOptions o;
+      o.background = background;
+      o.rest_compliance = rest;
+      RegisterSequence(std::string(background ? "Background" : "InStep") + "/" +
+                           (rest ? "Rest" : "LastFactor") + "/2660",
+                       o);
     }
   // the default scenario's setting in realtime: one step per 20 ms, the refresh in the time
   // between steps (its worker at the lowest priority); on one core this is what a realtime
   // direct_sim does with no other process beside it
-  benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660", [](benchmark::State& s) {
-    DirectSceneSequence(s, true, true, true);
-  })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  SequenceOptions paced;
+  paced.paced = true;
+  RegisterSequence("Paced/Rest/2660", paced);
   // the same with the factor adopted later: on a machine where a factorization takes longer
   // than refactor_adopt_delay steps, the adopting step waits for the worker (waits_per_swap)
   for (int delay : {6, 10}) {
-    const std::string name = "DirectSceneSequence/Paced/Rest/2660/AdoptDelay" + std::to_string(delay);
-    benchmark::RegisterBenchmark(name.c_str(), [delay](benchmark::State& s) {
-      DirectSceneSequence(s, true, true, true, delay);
-    })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+    SequenceOptions o = paced;
+    o.adopt_delay = delay;
+    RegisterSequence("Paced/Rest/2660/AdoptDelay" + std::to_string(delay), o);
   }
   // refactor_adoption: when_ready (realtime): each refresh adopted at the first step that finds
   // it done, no step waiting for the worker
-  benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady", [](benchmark::State& s) {
-    DirectSceneSequence(s, true, true, true, 0, FactorAdoption::kWhenReady);
-  })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  SequenceOptions paced_ready = paced;
+  paced_ready.adoption = FactorAdoption::kWhenReady;
+  RegisterSequence("Paced/Rest/2660/WhenReady", paced_ready);
   // the same without the refresh's hold (refactor_hold_steps 0): on one CPU the refresh then
   // takes the core from a step for a scheduler tick now and then (the scenario's default holds
   // it for the step; on two CPUs the two are the same)
-  benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady/NoHold",
-                               [](benchmark::State& s) {
-                                 DirectSceneSequence(s, true, true, true, 0,
-                                                     FactorAdoption::kWhenReady, -1.0, true, 0, 0);
-                               })
-      ->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  SequenceOptions no_hold = paced_ready;
+  no_hold.hold_steps = 0;
+  RegisterSequence("Paced/Rest/2660/WhenReady/NoHold", no_hold);
   // the same with the loop's thread in SCHED_FIFO (priority 10; direct_sim's run.rt_priority):
   // on one core no step is preempted by the refresh (skipped where the class is not permitted)
-  benchmark::RegisterBenchmark("DirectSceneSequence/Paced/Rest/2660/WhenReady/Fifo",
-                               [](benchmark::State& s) {
-                                 DirectSceneSequence(s, true, true, true, 0,
-                                                     FactorAdoption::kWhenReady, -1.0, true, 10);
-                               })
-      ->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
-  // the steps back to back with when_ready adoption, with refactor_slice 4 ms and without: on
-  // one CPU (taskset -c N) the first spreads each refresh over the steps, the second leaves the
-  // worker only what the steps leave, little when they run back to back; on two CPUs the two
-  // are the same (the slice is not used)
+  SequenceOptions fifo = paced_ready;
+  fifo.fifo_priority = 10;
+  RegisterSequence("Paced/Rest/2660/WhenReady/Fifo", fifo);
   // the needle held at the target while the liver breathes (the closed loop's final phase), back
   // to back with scheduled adoption (a lockstep run) and paced with adoption when ready (a
   // realtime direct_sim), each with the scenario's refresh threshold and with 3
   for (int threshold : {0, 3})
-    for (bool paced : {false, true}) {
-      const std::string name = std::string("DirectSceneSequence/NeedleHeld/") +
-                               (paced ? "Paced/Rest/2660/WhenReady" : "Background/Rest/2660") +
-                               (threshold > 0 ? "/Threshold" + std::to_string(threshold) : "");
-      benchmark::RegisterBenchmark(name.c_str(), [paced, threshold](benchmark::State& s) {
-        DirectSceneSequence(s, true, true, paced, 0,
-                            paced ? FactorAdoption::kWhenReady : FactorAdoption::kScheduled, -1.0,
-                            true, 0, -1, true, threshold);
-      })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+    for (bool is_paced : {false, true}) {
+      SequenceOptions o = is_paced ? paced_ready : SequenceOptions{};
+      o.needle_held = true;
+      o.refresh_threshold = threshold;
+      RegisterSequence(std::string("NeedleHeld/") +
+                           (is_paced ? "Paced/Rest/2660/WhenReady" : "Background/Rest/2660") +
+                           (threshold > 0 ? "/Threshold" + std::to_string(threshold) : ""),
+                       o);
     }
-  // the same without the work between steps (prefetch_ahead and prefetch_rib_margin 0): the
-  // steps then solve the compliance columns of the nodes the needle and the ribs reach
-  benchmark::RegisterBenchmark("DirectSceneSequence/Background/Rest/2660/WhenReady/NoPrefetch",
-                               [](benchmark::State& s) {
-                                 DirectSceneSequence(s, true, true, false, 0,
-                                                     FactorAdoption::kWhenReady, -1.0, false);
-                               })
-      ->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+  // back to back with when_ready adoption
+  SequenceOptions ready;
+  ready.adoption = FactorAdoption::kWhenReady;
+  // without the work between steps (prefetch_ahead and prefetch_rib_margin 0): the steps then
+  // solve the compliance columns of the nodes the needle and the ribs reach
+  SequenceOptions no_prefetch = ready;
+  no_prefetch.prefetch = false;
+  RegisterSequence("Background/Rest/2660/WhenReady/NoPrefetch", no_prefetch);
+  // with refactor_slice 4 ms and without: on one CPU (taskset -c N) the first spreads each
+  // refresh over the steps, the second leaves the worker only what the steps leave, little when
+  // they run back to back; on two CPUs the two are the same (the slice is not used)
   for (bool sliced : {true, false}) {
-    const std::string name =
-        std::string("DirectSceneSequence/Background/Rest/2660/WhenReady") + (sliced ? "" : "/NoSlice");
-    benchmark::RegisterBenchmark(name.c_str(), [sliced](benchmark::State& s) {
-      DirectSceneSequence(s, true, true, false, 0, FactorAdoption::kWhenReady, sliced ? 0.004 : 0.0);
-    })->Unit(benchmark::kMillisecond)->Iterations(400)->UseRealTime();
+    SequenceOptions o = ready;
+    o.slice = sliced ? 0.004 : 0.0;
+    RegisterSequence(std::string("Background/Rest/2660/WhenReady") + (sliced ? "" : "/NoSlice"), o);
   }
 }
 

@@ -207,15 +207,16 @@ void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast, int lose
   double largest_lag = 0.0;
   for (size_t k = 0; k + d < model_tips.size(); ++k) {
     if (!forecast[k]) continue;
-    bool in_flight_lost = false;  // a command in flight at frame k lost (k - d .. k - 1)
-    for (size_t j = k >= static_cast<size_t>(d) ? k - d : 0; j < k; ++j)
+    // over the frames k - d .. k - 1: a command in flight at frame k lost, and a step of the
+    // forecast that kept the command (a lost frame)
+    bool in_flight_lost = false, frame_in_window = false;
+    for (size_t j = k >= static_cast<size_t>(d) ? k - d : 0; j < k; ++j) {
       in_flight_lost = in_flight_lost || lost[j];
+      frame_in_window = frame_in_window || frame_lost[j];
+    }
     // right after a lost frame the robot's velocity is the mean over two steps: not exact
     if (in_flight_lost || (k > 0 && frame_lost[k - 1])) continue;
     after_loss += k >= static_cast<size_t>(d) + 1 && lost[k - d - 1] ? 1 : 0;
-    bool frame_in_window = false;  // a step of the forecast kept the command (a lost frame)
-    for (size_t j = k >= static_cast<size_t>(d) ? k - d : 0; j < k; ++j)
-      frame_in_window = frame_in_window || frame_lost[j];
     after_lost_frame += frame_in_window ? 1 : 0;
     if (to_forecast)
       EXPECT_LT((model_tips[k] - measured_tips[k + d]).norm(), 1e-9) << k;
