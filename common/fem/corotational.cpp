@@ -113,6 +113,18 @@ Matrix34d CalcCorotatedForce(const TetRestShape& rest, const LameParameters& lam
   return -rest.volume * P * rest.grad_n;
 }
 
+Matrix34d CalcCorotatedStepLoad(const TetRestShape& rest, const LameParameters& lame,
+                                const Matrix34d& rotated_grad, const Matrix34d& x,
+                                const Matrix34d& w, double h, double c) {
+  // F R^T = sum_a x_a r_a^T (the stretch in the world frame), K w's gradient sum_a w_a r_a^T;
+  // R sigma(R^T Y) g_a = sigma(Y R^T) r_a for the isotropic linear stress
+  Eigen::Matrix3d G = (h * x.col(0) + c * w.col(0)) * rotated_grad.col(0).transpose();
+  for (int a = 1; a < 4; ++a)
+    G.noalias() += (h * x.col(a) + c * w.col(a)) * rotated_grad.col(a).transpose();
+  G.diagonal().array() -= h;
+  return -rest.volume * LinearStress(lame, G) * rotated_grad;
+}
+
 double CalcCorotatedEnergy(const TetRestShape& rest, const LameParameters& lame,
                            const Eigen::Matrix3d& R, const Eigen::Matrix3d& F) {
   Eigen::Matrix3d G = R.transpose() * F;

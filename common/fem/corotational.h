@@ -64,6 +64,16 @@ Matrix34d ApplyCorotatedStiffness(const TetRestShape& rest, const LameParameters
 Matrix34d CalcCorotatedForce(const TetRestShape& rest, const LameParameters& lame,
                              const Eigen::Matrix3d& R, const Eigen::Matrix3d& F);
 
+/// The element's share of implicit Euler's right-hand side, h f - c R K_e R^T w (3 x 4, N s),
+/// for positions x (3 x 4, m), end velocities w (3 x 4, m/s), step h (s) and c = h beta + h^2
+/// (s^2), in one stress evaluation: the linear stress is linear in the displacement gradient,
+/// so with the rotated gradients r_a = R g_a (rotated_grad = R rest.grad_n) it is
+/// -V sigma(sum_a (h x_a + c w_a) r_a^T - h I) r_a, sigma(G) = lambda tr(G) I + mu (G + G^T).
+/// Equals h CalcCorotatedForce - c ApplyCorotatedStiffness to round-off.
+Matrix34d CalcCorotatedStepLoad(const TetRestShape& rest, const LameParameters& lame,
+                                const Matrix34d& rotated_grad, const Matrix34d& x,
+                                const Matrix34d& w, double h, double c);
+
 /// Strain energy (J) 0.5 u^T K_e u with u = R^T x - X, i.e. V (mu eps:eps + lambda/2 tr(eps)^2),
 /// eps = sym(R^T F) - I. With the polar R its gradient is exactly -CalcCorotatedForce.
 double CalcCorotatedEnergy(const TetRestShape& rest, const LameParameters& lame,

@@ -47,17 +47,18 @@ struct FemSolver::Impl {
   bool factor_is_current = false;     // active factor is this step's A (Q = I)
 
   // element passes over FemConfig::element_threads parts: part p covers the tets
-  // [part_begin[p], part_begin[p + 1]); parts p >= 1 sum into part_forces / part_out[p - 1],
+  // [part_begin[p], part_begin[p + 1]); parts p >= 1 sum into part_out[p - 1],
   // added to part 0's sums in part order
   std::unique_ptr<ForkJoin> pool;  // null with one part
   std::vector<int> part_begin;
-  std::vector<Eigen::Matrix3Xd> part_forces, part_out;
+  std::vector<Eigen::Matrix3Xd> part_out;
   std::vector<int> part_inverted;
 
   // scratch, preallocated
   Eigen::Matrix3Xd full_in, full_out, full_w;  // full_in: Dirichlet columns always zero
   Eigen::Matrix3Xd velocity_change;  // this step's change of the free end velocity
   Eigen::Matrix3Xd full_sum;                   // dv + v in CommitStep
+  Eigen::Matrix3Xd support_elastic;  // elastic forces at the Dirichlet nodes, in CommitStep
   Eigen::VectorXd b, dv, r, z, p, ap, tmp;
   Eigen::MatrixXd multi_in, multi_out, multi_rotated;
   Eigen::VectorXd zero_correction;  // 3n zeros for CommitStep without a correction
@@ -130,12 +131,12 @@ struct FemSolver::Impl {
     full_out = Eigen::Matrix3Xd::Zero(3, n);
     full_w = Eigen::Matrix3Xd::Zero(3, n);
     full_sum = Eigen::Matrix3Xd::Zero(3, n);
+    support_elastic = Eigen::Matrix3Xd::Zero(3, n);
     zero_correction = Eigen::VectorXd::Zero(3 * n);
     for (Eigen::VectorXd* v : {&b, &dv, &r, &z, &p, &ap, &tmp}) *v = Eigen::VectorXd::Zero(ndof);
     const int parts = config.element_threads;
     for (int q = 0; q <= parts; ++q)
       part_begin.push_back(static_cast<int>(static_cast<std::int64_t>(model.num_tets()) * q / parts));
-    part_forces.assign(parts - 1, Eigen::Matrix3Xd::Zero(3, n));
     part_out.assign(parts - 1, Eigen::Matrix3Xd::Zero(3, n));
     part_inverted.assign(parts, 0);
     if (parts > 1) pool = std::make_unique<ForkJoin>(parts);
@@ -561,17 +562,15 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
   for (size_t k = 0; k < prescribed.size(); ++k)
     s.full_w.col(prescribed[k]) = (state.prescribed_positions.col(k) - state.x.col(prescribed[k])) / s.h;
 
-  // element pass: rotations, elastic forces, K w with w = v (free) / v+ (Dirichlet)
-  state.forces.setZero();
+  // element pass: rotations, and the elastic part of the right-hand side, h f - (h beta + h^2)
+  // K w with w = v (free) / v+ (Dirichlet), in one stress evaluation an element
+  // (CalcCorotatedStepLoad; the elastic forces alone are needed only at the supports, for the
+  // reactions: CommitStep computes them there)
   s.full_out.setZero();
   const auto& tets = model.get_mesh().tets;
   s.RunParts([&](int part) {
-    Eigen::Matrix3Xd& forces = part == 0 ? state.forces : s.part_forces[part - 1];
-    Eigen::Matrix3Xd& kw = part == 0 ? s.full_out : s.part_out[part - 1];
-    if (part > 0) {
-      forces.setZero();
-      kw.setZero();
-    }
+    Eigen::Matrix3Xd& load = part == 0 ? s.full_out : s.part_out[part - 1];
+    if (part > 0) load.setZero();
     int inverted = 0;
     for (int e = s.part_begin[part]; e < s.part_begin[part + 1]; ++e) {
       const Eigen::Vector4i& t = tets[e];
@@ -587,32 +586,27 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
       if (used_svd) ++inverted;
       s.rotations[e] = R;
       s.rotated_grad[e] = R * rest.grad_n;
-      const Matrix34d fe = CalcCorotatedForce(rest, s.lame, R, F);
-      const Matrix34d kwe = ApplyCorotatedStiffness(rest, s.lame, R, we);
-      for (int a = 0; a < 4; ++a) {
-        forces.col(t[a]) += fe.col(a);
-        kw.col(t[a]) += kwe.col(a);
-      }
+      const Matrix34d le =
+          CalcCorotatedStepLoad(rest, s.lame, s.rotated_grad[e], xe, we, s.h, s.stiffness_scale);
+      for (int a = 0; a < 4; ++a) load.col(t[a]) += le.col(a);
     }
     s.part_inverted[part] = inverted;
   });
-  for (size_t q = 0; q < s.part_forces.size(); ++q) {
-    state.forces += s.part_forces[q];
-    s.full_out += s.part_out[q];
-  }
+  for (const Eigen::Matrix3Xd& load : s.part_out) s.full_out += load;
   for (int inverted : s.part_inverted) stats_.inverted_tets += inverted;
   state.rotations = s.rotations;
   const Eigen::VectorXd& mass = model.get_lumped_mass();
   const Eigen::Vector3d& g = model.get_config().gravity;
-  for (int i = 0; i < n; ++i) state.forces.col(i) += mass[i] * g + state.external_forces.col(i);
 
-  // reduced right-hand side b_f = [h f - h alpha M v - (h beta + h^2) K w]_f
+  // reduced right-hand side b_f = [h f - h alpha M v - (h beta + h^2) K w]_f, f = elastic +
+  // gravity + external
   const double alpha = model.get_config().rayleigh_mass;
   const auto& free_nodes = model.get_free_nodes();
   for (int k = 0; k < s.num_free; ++k) {
     const int i = free_nodes[k];
-    s.b.segment<3>(3 * k) = s.h * state.forces.col(i) - s.h * alpha * mass[i] * state.v.col(i) -
-                            s.stiffness_scale * s.full_out.col(i);
+    s.b.segment<3>(3 * k) = s.full_out.col(i) +
+                            s.h * (mass[i] * g + state.external_forces.col(i) -
+                                   alpha * mass[i] * state.v.col(i));
     // warm start: the free end velocity extrapolated from the previous steps (warm_start.h),
     // minus v (which carries the last correction: a contact's impulse is not extrapolated)
     const auto& changes = state.free_velocity_changes;
@@ -725,25 +719,40 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
     s.full_sum.col(i) = s.full_w.col(i) + state.v.col(i);
   }
 
-  // reactions r_d = [(1 + h alpha) M dv + h alpha M v + (h beta + h^2) K (dv + v)]_d / h - f_d
+  // reactions r_d = [(1 + h alpha) M dv + h alpha M v + (h beta + h^2) K (dv + v)]_d / h - f_d,
+  // f_d the forces at the step start (x not yet advanced, this step's rotations): elastic +
+  // gravity + external
   const auto& tets = model.get_mesh().tets;
-  for (int i : dirichlet) s.full_out.col(i).setZero();
+  for (int i : dirichlet) {
+    s.full_out.col(i).setZero();
+    s.support_elastic.col(i).setZero();
+  }
   for (int e : model.get_dirichlet_tets()) {
     const Eigen::Vector4i& t = tets[e];
-    Matrix34d pe;
-    for (int a = 0; a < 4; ++a) pe.col(a) = s.full_sum.col(t[a]);
-    const Matrix34d ye = ApplyCorotatedStiffness(model.get_rest_shapes()[e], s.lame, s.rotations[e], pe);
+    const TetRestShape& rest = model.get_rest_shapes()[e];
+    Matrix34d pe, xe;
+    for (int a = 0; a < 4; ++a) {
+      pe.col(a) = s.full_sum.col(t[a]);
+      xe.col(a) = state.x.col(t[a]);
+    }
+    const Matrix34d ye = ApplyCorotatedStiffness(rest, s.lame, s.rotations[e], pe);
+    const Matrix34d fe =
+        CalcCorotatedForce(rest, s.lame, s.rotations[e], CalcDeformationGradient(rest, xe));
     for (int a = 0; a < 4; ++a)
-      if (model.get_free_index(t[a]) < 0) s.full_out.col(t[a]) += ye.col(a);
+      if (model.get_free_index(t[a]) < 0) {
+        s.full_out.col(t[a]) += ye.col(a);
+        s.support_elastic.col(t[a]) += fe.col(a);
+      }
   }
   const double alpha = model.get_config().rayleigh_mass;
   const Eigen::VectorXd& mass = model.get_lumped_mass();
+  const Eigen::Vector3d& g = model.get_config().gravity;
   for (size_t j = 0; j < dirichlet.size(); ++j) {
     const int i = dirichlet[j];
     state.reaction_forces.col(j) =
         (s.mass_scale * mass[i] * s.full_w.col(i) + s.h * alpha * mass[i] * state.v.col(i) +
          s.stiffness_scale * s.full_out.col(i)) / s.h -
-        state.forces.col(i);
+        (s.support_elastic.col(i) + mass[i] * g + state.external_forces.col(i));
   }
 
   // advance

@@ -143,7 +143,7 @@ class FemSolver {
   FemStepStats Step(FemState& state);
 
   /// (1) Free motion: computes the element rotations at state.x, the forces and this step's
-  /// A and b, solves A dv = b and writes state.rotations, state.forces, state.dv_free and
+  /// A and b, solves A dv = b and writes state.rotations, state.dv_free and
   /// state.x_free. Does not advance state.x, state.v or state.time. Throws InputError when
   /// state.prescribed_positions or state.external_forces contain non-finite values.
   FemStepStats BeginStep(FemState& state);

@@ -26,7 +26,6 @@ FemState::FemState(const FemModel& model) {
   free_velocity = Eigen::Matrix3Xd::Zero(3, n);
   for (auto& change : free_velocity_changes) change = Eigen::Matrix3Xd::Zero(3, n);
   x_free = x;
-  forces = Eigen::Matrix3Xd::Zero(3, n);
   reaction_forces = Eigen::Matrix3Xd::Zero(3, static_cast<int>(model.get_dirichlet_nodes().size()));
 }
 

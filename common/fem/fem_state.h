@@ -42,8 +42,6 @@ struct FemState {
   int warm_start_order = 1;
   /// Free-motion positions x + h (v + dv_free) (m), 3 x #nodes, written by BeginStep.
   Eigen::Matrix3Xd x_free;
-  /// Forces at the start of the step (N), 3 x #nodes: elastic + gravity + external_forces.
-  Eigen::Matrix3Xd forces;
   /// Reaction forces the supports exert on the Dirichlet nodes during the last committed step
   /// (N), 3 x #Dirichlet in FemModel::get_dirichlet_nodes() order (fixed, then prescribed).
   Eigen::Matrix3Xd reaction_forces;

@@ -140,6 +140,46 @@ TEST(CorotationalTest, MatrixFreeProductEqualsDenseStiffness) {
             1e-13 * K.norm() * p.norm());
 }
 
+// the right-hand side's fused kernel against the force and the product it replaces, for
+// stretched, rotated elements away from the origin and arbitrary velocities (h and c of the
+// patient's liver): to round-off with an exact rotation (F = R S, S symmetric positive
+// definite, so R is F's polar factor), and to the polar decomposition's stated precision with
+// CalcPolarRotation's R (the two forms use R^T R = I, which that R meets to ~1e-8)
+TEST(CorotationalTest, StepLoadIsForceAndStiffnessProductInOne) {
+  const TetRestShape rest = CalcTetRestShape(IrregularTet());
+  const LameParameters lame = Liver();
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double h = 0.02, c = 0.02 * 0.01 + 0.02 * 0.02;
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
+    for (int i = 0; i < 3; ++i) {
+      S(i, i) += 0.2 * u(rng);
+      for (int j = i + 1; j < 3; ++j) S(i, j) = S(j, i) = 0.1 * u(rng);
+    }
+    const Eigen::Matrix3d R = RandomRotation(rng, M_PI);
+    Matrix34d x = R * S * IrregularTet();
+    x.colwise() += 0.1 * Eigen::Vector3d(u(rng), u(rng), u(rng));  // translations must cancel
+    const Matrix34d w = 0.05 * Matrix34d::Random();
+    const Eigen::Matrix3d F = CalcDeformationGradient(rest, x);
+    const Eigen::Matrix3d rotations[2] = {R, CalcPolarRotation(F)};
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::Matrix3d& Rk = rotations[k];
+      const Matrix34d force = h * CalcCorotatedForce(rest, lame, Rk, F);
+      const Matrix34d product = c * ApplyCorotatedStiffness(rest, lame, Rk, w);
+      const Matrix34d fused = CalcCorotatedStepLoad(rest, lame, Rk * rest.grad_n, x, w, h, c);
+      const double tolerance = k == 0 ? 1e-12 : 1e-7;
+      EXPECT_LT((fused - (force - product)).norm(), tolerance * (force.norm() + product.norm()))
+          << trial;
+    }
+  }
+  // a rigid motion at rest velocity loads nothing
+  const Eigen::Matrix3d R = RandomRotation(rng, 2.0);
+  const Matrix34d x = R * IrregularTet();
+  EXPECT_LT(CalcCorotatedStepLoad(rest, lame, R * rest.grad_n, x, Matrix34d::Zero(), h, c).norm(),
+            1e-12 * h * lame.mu * rest.volume * rest.grad_n.norm());
+}
+
 // forces of an element moved rigidly: the co-rotational element gives zero, the small-strain
 // linear one (R = I) a spurious ("ghost") force growing with the angle
 TEST(CorotationalTest, RigidMotionGivesNoForceAndLinearFemGhostForces) {
