@@ -1,6 +1,7 @@
 #include "common/fem/corotational.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 
 #include "common/core/error.h"
@@ -43,34 +44,56 @@ Eigen::Matrix3d CalcDeformationGradient(const TetRestShape& rest, const Matrix34
   return x * rest.grad_n.transpose();
 }
 
-Eigen::Matrix3d CalcPolarRotation(const Eigen::Matrix3d& F, bool* used_svd) {
-  const double det = F.determinant();
-  if (det > kPolarSvdThreshold) {
-    if (used_svd) *used_svd = false;
-    // Higham's Newton iteration X <- (g X + (g X)^-T) / 2 with determinant scaling g;
-    // converges quadratically to the orthogonal polar factor, which is a rotation as det F > 0
-    Eigen::Matrix3d X = F;
-    double det_x = det;
-    for (int it = 0; it < 30; ++it) {
-      // X^-T = cofactor(X) / det X
-      Eigen::Matrix3d cof;
-      cof.col(0) = X.col(1).cross(X.col(2));
-      cof.col(1) = X.col(2).cross(X.col(0));
-      cof.col(2) = X.col(0).cross(X.col(1));
-      if (it > 0) det_x = X.col(0).dot(cof.col(0));
-      // |det(gX)| = 1; near-orthogonal iterates need no scaling (saves the cube root)
-      const double g = std::abs(det_x - 1.0) < 1e-2 ? 1.0 : 1.0 / std::cbrt(det_x);
-      Eigen::Matrix3d next = 0.5 * (g * X + cof / (g * det_x));
-      const double change = (next - X).squaredNorm();
-      X = next;
-      // X = Q (I + E), E symmetric, becomes Q (I + E^2 / 2 + O(E^3)) in a step that changes
-      // X by ||E||: after a step of norm below kPolarStepTolerance the iterate is within
-      // about kPolarStepTolerance^2 / 2 of the polar factor (E^2 / 2 plus higher orders)
-      if (change < kPolarStepTolerance * kPolarStepTolerance) break;
+namespace {
+
+template <int W>
+using Lanes = Eigen::Array<double, W, 1>;
+
+// Higham's Newton iteration X <- (g X + (g X)^-T) / 2 with determinant scaling g, on W
+// matrices at once (det > 0 each). x[i] holds entry i (column-major) of every lane's matrix,
+// so that each array operation below is one vector operation across the lanes; a lane stops
+// where the iteration on its matrix alone would (its iterate is then kept), the block when
+// every lane has. It converges quadratically to the orthogonal polar factor, a rotation as
+// det > 0.
+template <int W>
+void PolarNewton(Lanes<W> (&x)[9], Lanes<W> det) {
+  using A = Lanes<W>;
+  A done = A::Zero();  // 1 for a lane that has stopped
+  for (int it = 0; it < 30; ++it) {
+    // X^-T = cofactor(X) / det X, the cofactor's columns the crosses of X's columns
+    A cof[9];
+    for (int c = 0; c < 3; ++c) {
+      const int a = 3 * ((c + 1) % 3), b = 3 * ((c + 2) % 3);
+      for (int r = 0; r < 3; ++r) {
+        const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;
+        cof[3 * c + r] = x[a + r1] * x[b + r2] - x[a + r2] * x[b + r1];
+      }
     }
-    return X;
+    if (it > 0) det = x[0] * cof[0] + x[1] * cof[1] + x[2] * cof[2];
+    // |det(gX)| = 1; near-orthogonal iterates need no scaling (saves the cube root)
+    A g = A::Ones();
+    for (int l = 0; l < W; ++l)
+      if (std::abs(det[l] - 1.0) >= 1e-2) g[l] = 1.0 / std::cbrt(det[l]);
+    const A inv = (g * det).inverse();
+    A change = A::Zero();
+    for (int i = 0; i < 9; ++i) {
+      const A next = 0.5 * (g * x[i] + inv * cof[i]);
+      change += (next - x[i]).square();
+      x[i] = (done > 0.5).select(x[i], next);
+    }
+    // X = Q (I + E), E symmetric, becomes Q (I + E^2 / 2 + O(E^3)) in a step that changes
+    // X by ||E||: after a step of norm below kPolarStepTolerance the iterate is within
+    // about kPolarStepTolerance^2 / 2 of the polar factor (E^2 / 2 plus higher orders)
+    done = (change < kPolarStepTolerance * kPolarStepTolerance).select(A::Ones(), done);
+    if ((done > 0.5).all()) break;
   }
-  if (used_svd) *used_svd = true;
+}
+
+double Determinant(const Eigen::Matrix3d& F) { return F.col(0).dot(F.col(1).cross(F.col(2))); }
+
+// the SVD branch: F = U Sigma V^T, the smallest singular value's sign flipped so that the
+// factor is a proper rotation (Irving et al. 2004)
+Eigen::Matrix3d PolarRotationBySvd(const Eigen::Matrix3d& F) {
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d U = svd.matrixU();
   Eigen::Matrix3d V = svd.matrixV();
@@ -78,6 +101,44 @@ Eigen::Matrix3d CalcPolarRotation(const Eigen::Matrix3d& F, bool* used_svd) {
   if (U.determinant() < 0) U.col(2) = -U.col(2);
   if (V.determinant() < 0) V.col(2) = -V.col(2);
   return U * V.transpose();
+}
+
+// the polar rotations of F[0..m), m <= W, in one block of PolarNewton; the lanes past m and
+// those for the SVD branch (det F <= kPolarSvdThreshold) iterate on I (one step, no change)
+template <int W>
+void PolarBlock(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used_svd, int m) {
+  Lanes<W> x[9], det;
+  for (int l = 0; l < W; ++l) {
+    det[l] = l < m ? Determinant(F[l]) : 0.0;
+    const bool newton = det[l] > kPolarSvdThreshold;
+    if (l < m) used_svd[l] = !newton;
+    for (int i = 0; i < 9; ++i) x[i][l] = newton ? F[l](i) : (i % 4 == 0 ? 1.0 : 0.0);
+    if (!newton) det[l] = 1.0;
+  }
+  PolarNewton<W>(x, det);
+  for (int l = 0; l < m; ++l) {
+    if (used_svd[l]) {
+      R[l] = PolarRotationBySvd(F[l]);
+    } else {
+      for (int i = 0; i < 9; ++i) R[l](i) = x[i][l];
+    }
+  }
+}
+
+}  // namespace
+
+Eigen::Matrix3d CalcPolarRotation(const Eigen::Matrix3d& F, bool* used_svd) {
+  Eigen::Matrix3d R;
+  bool svd = false;
+  PolarBlock<1>(&F, &R, &svd, 1);
+  if (used_svd) *used_svd = svd;
+  return R;
+}
+
+void CalcPolarRotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used_svd, int count) {
+  for (int begin = 0; begin < count; begin += kPolarBatch)
+    PolarBlock<kPolarBatch>(F + begin, R + begin, used_svd + begin,
+                            std::min(kPolarBatch, count - begin));
 }
 
 Matrix12d CalcCorotatedStiffness(const TetRestShape& rest, const LameParameters& lame,

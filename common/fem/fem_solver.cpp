@@ -3,10 +3,12 @@
 #include <sched.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <utility>
@@ -39,6 +41,8 @@ struct FemSolver::Impl {
   std::vector<Eigen::Matrix3d> rotations;     // element rotations of the current step
   std::vector<Matrix34d> rotated_grad;        // R_e grad_n of the current step (1/m)
   std::vector<Eigen::Matrix3d> nodal_rotations;  // current, per free node
+  std::vector<Eigen::Matrix3d> nodal_means;      // scratch: their mean element rotations
+  std::unique_ptr<bool[]> nodal_svd;             // scratch: CalcPolarRotations' branch flags
   // per entry j of the model's node-tet lists: tet j's volume over the summed volume of its
   // free node's tets (the weights of the nodal average, flat: no rest shape read per step)
   std::vector<double> node_tet_weights;
@@ -113,6 +117,8 @@ struct FemSolver::Impl {
     rotated_grad.resize(model.num_tets());
     for (int e = 0; e < model.num_tets(); ++e) rotated_grad[e] = model.get_rest_shapes()[e].grad_n;
     nodal_rotations.assign(num_free, Eigen::Matrix3d::Identity());
+    nodal_means.resize(num_free);
+    nodal_svd = std::make_unique<bool[]>(num_free);
     {
       const auto& offsets = model.get_node_tet_offsets();
       const auto& node_tets = model.get_node_tets();
@@ -367,14 +373,16 @@ struct FemSolver::Impl {
   void UpdateNodalRotations() {
     const auto& offsets = model.get_node_tet_offsets();
     const auto& node_tets = model.get_node_tets();
+    // the volume-weighted mean of each node's element rotations, and its polar factor
     for (int k = 0; k < num_free; ++k) {
-      // the volume-weighted mean of the node's element rotations, and its polar factor
-      Eigen::Matrix3d mean = Eigen::Matrix3d::Zero();
+      Eigen::Matrix3d& mean = nodal_means[k];
+      mean.setZero();
       for (int j = offsets[k]; j < offsets[k + 1]; ++j)
         mean += node_tet_weights[j] * rotations[node_tets[j]];
-      nodal_rotations[k] = CalcPolarRotation(mean);
-      warp[k] = nodal_rotations[k] * reference_rotations[k].transpose();
     }
+    CalcPolarRotations(nodal_means.data(), nodal_rotations.data(), nodal_svd.get(), num_free);
+    for (int k = 0; k < num_free; ++k)
+      warp[k] = nodal_rotations[k] * reference_rotations[k].transpose();
   }
 
   // factorize this step's A on this thread; the factor becomes exact for this step
@@ -572,23 +580,30 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     Eigen::Matrix3Xd& load = part == 0 ? s.full_out : s.part_out[part - 1];
     if (part > 0) load.setZero();
     int inverted = 0;
-    for (int e = s.part_begin[part]; e < s.part_begin[part + 1]; ++e) {
-      const Eigen::Vector4i& t = tets[e];
-      const TetRestShape& rest = model.get_rest_shapes()[e];
-      Matrix34d xe, we;
-      for (int a = 0; a < 4; ++a) {
-        xe.col(a) = state.x.col(t[a]);
-        we.col(a) = s.full_w.col(t[a]);
+    // kPolarBatch elements at a time: their rotations in one CalcPolarRotations
+    const int end = s.part_begin[part + 1];
+    for (int begin = s.part_begin[part]; begin < end; begin += kPolarBatch) {
+      const int m = std::min(kPolarBatch, end - begin);
+      Matrix34d xe[kPolarBatch];
+      Eigen::Matrix3d F[kPolarBatch];
+      bool used_svd[kPolarBatch];
+      for (int k = 0; k < m; ++k) {
+        for (int a = 0; a < 4; ++a) xe[k].col(a) = state.x.col(tets[begin + k][a]);
+        F[k] = CalcDeformationGradient(model.get_rest_shapes()[begin + k], xe[k]);
       }
-      const Eigen::Matrix3d F = CalcDeformationGradient(rest, xe);
-      bool used_svd = false;
-      const Eigen::Matrix3d R = CalcPolarRotation(F, &used_svd);
-      if (used_svd) ++inverted;
-      s.rotations[e] = R;
-      s.rotated_grad[e] = R * rest.grad_n;
-      const Matrix34d le =
-          CalcCorotatedStepLoad(rest, s.lame, s.rotated_grad[e], xe, we, s.h, s.stiffness_scale);
-      for (int a = 0; a < 4; ++a) load.col(t[a]) += le.col(a);
+      CalcPolarRotations(F, &s.rotations[begin], used_svd, m);
+      for (int k = 0; k < m; ++k) {
+        const int e = begin + k;
+        const Eigen::Vector4i& t = tets[e];
+        const TetRestShape& rest = model.get_rest_shapes()[e];
+        if (used_svd[k]) ++inverted;
+        s.rotated_grad[e] = s.rotations[e] * rest.grad_n;
+        Matrix34d we;
+        for (int a = 0; a < 4; ++a) we.col(a) = s.full_w.col(t[a]);
+        const Matrix34d le = CalcCorotatedStepLoad(rest, s.lame, s.rotated_grad[e], xe[k], we,
+                                                   s.h, s.stiffness_scale);
+        for (int a = 0; a < 4; ++a) load.col(t[a]) += le.col(a);
+      }
     }
     s.part_inverted[part] = inverted;
   });

@@ -30,8 +30,10 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "common/fem/cholmod_factor.h"
+#include "common/fem/corotational.h"
 #include "common/fem/single_precision_factor.h"
 #include "common/fem/fem_solver.h"
 #include "common/mesh/gmsh_reader.h"
@@ -240,6 +242,31 @@ void ApplyInverse40(benchmark::State& bench, int nodes, FemInverse which) {
   }
 }
 
+// PolarRotation/{One,Batch}: the polar rotations of the 2660-node liver's elements after 1 s
+// of breathing (its deformation gradients), one CalcPolarRotation call each or
+// CalcPolarRotations on all; time for all of them (iterations_per_element: of the Newton
+// iteration, one matrix at a time)
+void PolarRotation(benchmark::State& bench, bool batch) {
+  const Fixture fixture(2660, FemLinearSolver::kPcgCachedFactor, false);
+  const FemModel& model = *fixture.model;
+  const int count = model.num_tets();
+  std::vector<Eigen::Matrix3d> F(count), R(count);
+  std::vector<char> used_svd(count);
+  for (int e = 0; e < count; ++e) {
+    Matrix34d xe;
+    for (int a = 0; a < 4; ++a) xe.col(a) = fixture.state->x.col(model.get_mesh().tets[e][a]);
+    F[e] = CalcDeformationGradient(model.get_rest_shapes()[e], xe);
+  }
+  for (auto _ : bench) {
+    if (batch) {
+      CalcPolarRotations(F.data(), R.data(), reinterpret_cast<bool*>(used_svd.data()), count);
+    } else {
+      for (int k = 0; k < count; ++k) R[k] = CalcPolarRotation(F[k]);
+    }
+    benchmark::DoNotOptimize(R.data());
+  }
+}
+
 }  // namespace
 }  // namespace nsim
 
@@ -247,6 +274,10 @@ int main(int argc, char** argv) {
   using namespace nsim;
   const char* threads = std::getenv("OPENBLAS_NUM_THREADS");
   benchmark::AddCustomContext("OPENBLAS_NUM_THREADS", threads ? threads : "unset (all cores)");
+  for (bool batch : {false, true})
+    benchmark::RegisterBenchmark(batch ? "PolarRotation/Batch" : "PolarRotation/One",
+                                 [batch](benchmark::State& s) { PolarRotation(s, batch); })
+        ->Unit(benchmark::kMicrosecond);
   for (int nodes : {700, 2660, 10000, kLargeMesh}) {
     if (!std::ifstream(MeshPath(nodes))) continue;
     const std::string n = std::to_string(nodes);

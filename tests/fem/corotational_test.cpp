@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "common/core/error.h"
 #include "common/mesh/tet_mesh.h"
@@ -93,6 +94,35 @@ TEST(CorotationalTest, PolarRotationOfInvertedAndDegenerateIsProperRotation) {
       // rotation itself here (diag's small entry is along the third axis)
       EXPECT_LT((Rp - R).norm(), 1e-12);
     }
+  }
+}
+
+TEST(CorotationalTest, PolarRotationsInBlocksEqualOneByOne) {
+  // 23 matrices (blocks of kPolarBatch and a partial one): stretches from 1e-6 to 0.4 (one to
+  // six Newton iterations, so lanes of a block stop at different iterations), inverted and
+  // flattened ones (the SVD branch) among them; each the rotation of its own call
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double stretches[] = {0.4, 1e-2, 1e-6, 3e-2, 1e-4, 0.1, 2e-3};
+  std::vector<Eigen::Matrix3d> F(23), R(23);
+  for (int k = 0; k < 23; ++k) {
+    Eigen::Matrix3d B;
+    for (int i = 0; i < 9; ++i) B(i) = u(rng);
+    const Eigen::Matrix3d S =
+        Eigen::Matrix3d::Identity() + 0.5 * stretches[k % 7] * (B + B.transpose());
+    F[k] = RandomRotation(rng, M_PI) * S;
+    if (k % 5 == 3) F[k].col(2) *= -0.5;  // inverted
+    if (k == 9) F[k].col(1).setZero();    // flattened
+  }
+  bool used_svd[23];
+  CalcPolarRotations(F.data(), R.data(), used_svd, 23);
+  for (int k = 0; k < 23; ++k) {
+    bool svd = false;
+    const Eigen::Matrix3d one = CalcPolarRotation(F[k], &svd);
+    EXPECT_EQ(used_svd[k], svd) << k;
+    EXPECT_EQ(used_svd[k], k % 5 == 3 || k == 9) << k;
+    EXPECT_LT((R[k] - one).norm(), 1e-14) << k;
+    EXPECT_NEAR(R[k].determinant(), 1.0, kPolarStepTolerance * kPolarStepTolerance) << k;
   }
 }
 
