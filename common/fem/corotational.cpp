@@ -71,9 +71,10 @@ void PolarNewton(Lanes<W> (&x)[9], Lanes<W> det) {
     }
     if (it > 0) det = x[0] * cof[0] + x[1] * cof[1] + x[2] * cof[2];
     // |det(gX)| = 1; near-orthogonal iterates need no scaling (saves the cube root)
+    // (g = det^(-1/3) as exp(-log(det) / 3), across the lanes at once)
     A g = A::Ones();
-    for (int l = 0; l < W; ++l)
-      if (std::abs(det[l] - 1.0) >= 1e-2) g[l] = 1.0 / std::cbrt(det[l]);
+    const auto far = (det - 1.0).abs() >= 1e-2;
+    if (far.any()) g = far.select((det.log() * (-1.0 / 3.0)).exp(), g);
     const A inv = (g * det).inverse();
     A change = A::Zero();
     for (int i = 0; i < 9; ++i) {
@@ -89,8 +90,6 @@ void PolarNewton(Lanes<W> (&x)[9], Lanes<W> det) {
   }
 }
 
-double Determinant(const Eigen::Matrix3d& F) { return F.col(0).dot(F.col(1).cross(F.col(2))); }
-
 // the SVD branch: F = U Sigma V^T, the smallest singular value's sign flipped so that the
 // factor is a proper rotation (Irving et al. 2004)
 Eigen::Matrix3d PolarRotationBySvd(const Eigen::Matrix3d& F) {
@@ -103,26 +102,45 @@ Eigen::Matrix3d PolarRotationBySvd(const Eigen::Matrix3d& F) {
   return U * V.transpose();
 }
 
-// the polar rotations of F[0..m), m <= W, in one block of PolarNewton; the lanes past m and
-// those for the SVD branch (det F <= kPolarSvdThreshold) iterate on I (one step, no change)
+// the polar rotations of the W matrices in x (entry i of lane l in x[i][l]; R on return) whose
+// lanes below m hold matrices, in one block of PolarNewton; the lanes past m and those for the
+// SVD branch (det F <= kPolarSvdThreshold, computed apart) iterate on I (one step, no change)
 template <int W>
-void PolarBlock(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used_svd, int m) {
-  Lanes<W> x[9], det;
+void PolarLanes(Lanes<W> (&x)[9], int m, bool* used_svd) {
+  // det = x_0 . (x_1 x x_2), the columns x_c = (x[3c], x[3c + 1], x[3c + 2])
+  Lanes<W> det = x[0] * (x[4] * x[8] - x[5] * x[7]) + x[1] * (x[5] * x[6] - x[3] * x[8]) +
+                 x[2] * (x[3] * x[7] - x[4] * x[6]);
+  bool any_svd = false;
+  Eigen::Matrix3d F[W];  // the SVD branch's matrices
   for (int l = 0; l < W; ++l) {
-    det[l] = l < m ? Determinant(F[l]) : 0.0;
-    const bool newton = det[l] > kPolarSvdThreshold;
+    const bool newton = l < m && det[l] > kPolarSvdThreshold;
     if (l < m) used_svd[l] = !newton;
-    for (int i = 0; i < 9; ++i) x[i][l] = newton ? F[l](i) : (i % 4 == 0 ? 1.0 : 0.0);
-    if (!newton) det[l] = 1.0;
+    if (newton) continue;
+    if (l < m) {
+      any_svd = true;
+      for (int i = 0; i < 9; ++i) F[l](i) = x[i][l];
+    }
+    for (int i = 0; i < 9; ++i) x[i][l] = i % 4 == 0 ? 1.0 : 0.0;
+    det[l] = 1.0;
   }
   PolarNewton<W>(x, det);
-  for (int l = 0; l < m; ++l) {
+  if (!any_svd) return;
+  for (int l = 0; l < m; ++l)
     if (used_svd[l]) {
-      R[l] = PolarRotationBySvd(F[l]);
-    } else {
-      for (int i = 0; i < 9; ++i) R[l](i) = x[i][l];
+      const Eigen::Matrix3d R = PolarRotationBySvd(F[l]);
+      for (int i = 0; i < 9; ++i) x[i][l] = R(i);
     }
-  }
+}
+
+// PolarLanes for the matrices F[0..m), m <= W, into R[0..m)
+template <int W>
+void PolarBlock(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used_svd, int m) {
+  Lanes<W> x[9];
+  for (int l = 0; l < W; ++l)
+    for (int i = 0; i < 9; ++i) x[i][l] = l < m ? F[l](i) : 0.0;
+  PolarLanes<W>(x, m, used_svd);
+  for (int l = 0; l < m; ++l)
+    for (int i = 0; i < 9; ++i) R[l](i) = x[i][l];
 }
 
 }  // namespace
@@ -136,9 +154,13 @@ Eigen::Matrix3d CalcPolarRotation(const Eigen::Matrix3d& F, bool* used_svd) {
 }
 
 void CalcPolarRotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used_svd, int count) {
-  for (int begin = 0; begin < count; begin += kPolarBatch)
-    PolarBlock<kPolarBatch>(F + begin, R + begin, used_svd + begin,
-                            std::min(kPolarBatch, count - begin));
+  for (int begin = 0; begin < count; begin += kTetLanes)
+    PolarBlock<kTetLanes>(F + begin, R + begin, used_svd + begin,
+                          std::min(kTetLanes, count - begin));
+}
+
+void CalcPolarRotationLanes(TetLanes (&x)[9], int m, bool* used_svd) {
+  PolarLanes<kTetLanes>(x, m, used_svd);
 }
 
 Matrix12d CalcCorotatedStiffness(const TetRestShape& rest, const LameParameters& lame,

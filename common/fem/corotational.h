@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "common/fem/fem_config.h"
+#include "common/fem/tet_lanes.h"
 
 namespace nsim {
 
@@ -41,15 +42,17 @@ Eigen::Matrix3d CalcDeformationGradient(const TetRestShape& rest, const Matrix34
 Eigen::Matrix3d CalcPolarRotation(const Eigen::Matrix3d& F, bool* used_svd = nullptr);
 
 /// CalcPolarRotation of F[0..count) into R[0..count) (used_svd[k]: whether F[k] took the SVD
-/// branch), kPolarBatch matrices at once in the Newton iteration: the same rotations as one
-/// call each (each matrix stops where it would alone), in under half the time of one-by-one
-/// calls before the batches (fem_bench PolarRotation: the 2660-node liver's elements 0.47
-/// against 1.0 ms). FemSolver's element pass and its nodal rotations call it.
+/// branch), kTetLanes matrices at once in the Newton iteration: the same rotations as one call
+/// each (each matrix stops where it would alone), in under half the time of one-by-one calls
+/// before the batches (fem_bench PolarRotation: the 2660-node liver's elements 0.47 against
+/// 1.0 ms). FemSolver's nodal rotations call it. (8 lanes measured slower than 4: a block
+/// iterates until its slowest matrix stops.)
 void CalcPolarRotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used_svd, int count);
 
-/// Matrices CalcPolarRotations iterates on at once: a 256-bit vector of doubles (8 measured
-/// slower: a block iterates until its slowest matrix stops).
-inline constexpr int kPolarBatch = 4;
+/// The same for the kTetLanes matrices in x (entry i of lane l's matrix, column-major, in
+/// x[i][l]), in place: x holds their rotations on return. Lanes l < m hold matrices
+/// (used_svd[l] set); the others are ignored. FemSolver's element pass calls it.
+void CalcPolarRotationLanes(TetLanes (&x)[9], int m, bool* used_svd);
 
 /// det F at or below which CalcPolarRotation uses the SVD branch (-).
 inline constexpr double kPolarSvdThreshold = 1e-3;

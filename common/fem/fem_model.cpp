@@ -34,6 +34,7 @@ FemModel::FemModel(const TetMesh& mesh, const FemConfig& config, const FemBounda
     }
     for (int a = 0; a < 4; ++a) mass_[t[a]] += config_.density * rest_[e].volume / 4.0;
   }
+  blocks_ = MakeTetBlocks(mesh_.tets, rest_);
   total_mass_ = mass_.sum();
   for (int i = 0; i < n; ++i)
     if (!(mass_[i] > 0.0))

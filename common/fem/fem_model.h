@@ -10,6 +10,7 @@
 
 #include "common/fem/corotational.h"
 #include "common/fem/fem_config.h"
+#include "common/fem/tet_lanes.h"
 #include "common/mesh/tet_mesh.h"
 
 namespace nsim {
@@ -40,6 +41,8 @@ class FemModel {
   const Eigen::Matrix3Xd& get_rest_positions() const { return mesh_.X; }
   /// Rest shape of every tet (gradients, volume), index = tet index.
   const std::vector<TetRestShape>& get_rest_shapes() const { return rest_; }
+  /// The same tets and rest shapes in blocks of kTetLanes, for the solver's element kernels.
+  const TetBlocks& get_tet_blocks() const { return blocks_; }
   /// Lumped nodal mass (kg), #nodes: each tet gives rho V / 4 to each of its nodes.
   const Eigen::VectorXd& get_lumped_mass() const { return mass_; }
   double get_total_mass() const { return total_mass_; }
@@ -74,6 +77,7 @@ class FemModel {
   LameParameters lame_;
   TetMesh mesh_;
   std::vector<TetRestShape> rest_;
+  TetBlocks blocks_;
   Eigen::VectorXd mass_;
   double total_mass_ = 0.0;
   std::vector<int> fixed_nodes_, prescribed_nodes_, dirichlet_nodes_, free_nodes_, free_index_;

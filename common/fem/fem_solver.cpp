@@ -39,7 +39,8 @@ struct FemSolver::Impl {
   std::unique_ptr<SinglePrecisionFactor> active_single;
   std::unique_ptr<CholmodFactor> rest;    // factor of A_0, never replaced (kRestFactor)
   std::vector<Eigen::Matrix3d> rotations;     // element rotations of the current step
-  std::vector<Matrix34d> rotated_grad;        // R_e grad_n of the current step (1/m)
+  // R_e grad_n of the current step (1/m), per block of the model's TetBlocks
+  std::vector<TetLanes34> rotated_grad;
   std::vector<Eigen::Matrix3d> nodal_rotations;  // current, per free node
   std::vector<Eigen::Matrix3d> nodal_means;      // scratch: their mean element rotations
   std::unique_ptr<bool[]> nodal_svd;             // scratch: CalcPolarRotations' branch flags
@@ -50,9 +51,9 @@ struct FemSolver::Impl {
   std::vector<Eigen::Matrix3d> warp;  // Q = current * reference^T, per free node
   bool factor_is_current = false;     // active factor is this step's A (Q = I)
 
-  // element passes over FemConfig::element_threads parts: part p covers the tets
-  // [part_begin[p], part_begin[p + 1]); parts p >= 1 sum into part_out[p - 1],
-  // added to part 0's sums in part order
+  // element passes over FemConfig::element_threads parts: part p covers the blocks of
+  // kTetLanes tets [part_begin[p], part_begin[p + 1]) (TetBlocks); parts p >= 1 sum into
+  // part_out[p - 1], added to part 0's sums in part order
   std::unique_ptr<ForkJoin> pool;  // null with one part
   std::vector<int> part_begin;
   std::vector<Eigen::Matrix3Xd> part_out;
@@ -62,7 +63,7 @@ struct FemSolver::Impl {
   Eigen::Matrix3Xd full_in, full_out, full_w;  // full_in: Dirichlet columns always zero
   Eigen::Matrix3Xd velocity_change;  // this step's change of the free end velocity
   Eigen::Matrix3Xd full_sum;                   // dv + v in CommitStep
-  Eigen::Matrix3Xd support_elastic;  // elastic forces at the Dirichlet nodes, in CommitStep
+  Eigen::Matrix3Xd support_elastic;  // the reactions' elastic part at the Dirichlet nodes, in CommitStep
   Eigen::VectorXd b, dv, r, z, p, ap, tmp;
   Eigen::MatrixXd multi_in, multi_out, multi_rotated;
   Eigen::VectorXd zero_correction;  // 3n zeros for CommitStep without a correction
@@ -78,7 +79,7 @@ struct FemSolver::Impl {
   std::unique_ptr<CholmodFactor> spare;
   std::unique_ptr<SinglePrecisionFactor> spare_single;  // its copy, made by the worker
   Eigen::SparseMatrix<double> background_matrix;
-  std::vector<Matrix34d> background_grad;
+  std::vector<TetLanes34> background_grad;
   std::vector<Eigen::Matrix3d> background_rotations;
   std::thread worker;
   std::mutex mutex;
@@ -114,8 +115,7 @@ struct FemSolver::Impl {
       mass_free.segment<3>(3 * k).setConstant(model.get_lumped_mass()[model.get_free_nodes()[k]]);
     matrix = model.get_system_pattern();
     rotations.assign(model.num_tets(), Eigen::Matrix3d::Identity());
-    rotated_grad.resize(model.num_tets());
-    for (int e = 0; e < model.num_tets(); ++e) rotated_grad[e] = model.get_rest_shapes()[e].grad_n;
+    rotated_grad = model.get_tet_blocks().grad;
     nodal_rotations.assign(num_free, Eigen::Matrix3d::Identity());
     nodal_means.resize(num_free);
     nodal_svd = std::make_unique<bool[]>(num_free);
@@ -141,8 +141,9 @@ struct FemSolver::Impl {
     zero_correction = Eigen::VectorXd::Zero(3 * n);
     for (Eigen::VectorXd* v : {&b, &dv, &r, &z, &p, &ap, &tmp}) *v = Eigen::VectorXd::Zero(ndof);
     const int parts = config.element_threads;
+    const int blocks = model.get_tet_blocks().num_blocks();
     for (int q = 0; q <= parts; ++q)
-      part_begin.push_back(static_cast<int>(static_cast<std::int64_t>(model.num_tets()) * q / parts));
+      part_begin.push_back(static_cast<int>(static_cast<std::int64_t>(blocks) * q / parts));
     part_out.assign(parts - 1, Eigen::Matrix3Xd::Zero(3, n));
     part_inverted.assign(parts, 0);
     if (parts > 1) pool = std::make_unique<ForkJoin>(parts);
@@ -233,10 +234,17 @@ struct FemSolver::Impl {
     }
   }
 
+  // element e's matrix of per-block lanes (TetBlocks)
+  static Matrix34d ElementOf(const std::vector<TetLanes34>& lanes, int e) {
+    Matrix34d m;
+    for (int i = 0; i < 12; ++i) m(i) = lanes[e / kTetLanes][i][e % kTetLanes];
+    return m;
+  }
+
   // A_ff = (1 + h alpha) M + (h beta + h^2) sum_e R_e K_e R_e^T into `target`'s values, from
-  // the rotated gradients `grads` (R_e grad_n per element); reads only what never changes
+  // the rotated gradients `grads` (R_e grad_n, per block of TetBlocks); reads only what never changes
   // after construction besides its arguments, so the worker may run it
-  void Assemble(const std::vector<Matrix34d>& grads, Eigen::SparseMatrix<double>& target) const {
+  void Assemble(const std::vector<TetLanes34>& grads, Eigen::SparseMatrix<double>& target) const {
     double* values = target.valuePtr();
     const int* outer = target.outerIndexPtr();
     std::fill(values, values + target.nonZeros(), 0.0);
@@ -247,7 +255,7 @@ struct FemSolver::Impl {
     for (int e = 0; e < model.num_tets(); ++e) {
       if (e % 1024 == 0) PassWorkerGate();  // a safe point of the worker (no-op on others)
       const TetRestShape& rest = model.get_rest_shapes()[e];
-      const Matrix34d& rg = grads[e];
+      const Matrix34d rg = ElementOf(grads, e);
       const double scale = stiffness_scale * rest.volume;
       for (int bn = 0; bn < 4; ++bn) {
         const int fb = model.get_free_index(tets[e][bn]);
@@ -282,27 +290,37 @@ struct FemSolver::Impl {
     const auto& free_nodes = model.get_free_nodes();
     for (int k = 0; k < num_free; ++k) full_in.col(free_nodes[k]) = in.segment<3>(3 * k);
     full_out.setZero();
-    const auto& tets = model.get_mesh().tets;
+    const TetBlocks& blocks = model.get_tet_blocks();
     RunParts([&](int part) {
       Eigen::Matrix3Xd& sum = part == 0 ? full_out : part_out[part - 1];
       if (part > 0) sum.setZero();
-      for (int e = part_begin[part]; e < part_begin[part + 1]; ++e) {
-        const Eigen::Vector4i& t = tets[e];
-        // R K_e R^T p with rotated gradients r = R g: G = sum_b p_b r_b^T, y_a = V (lambda
-        // tr(G) I + mu (G + G^T)) r_a (same as ApplyCorotatedStiffness, fewer flops)
-        const Matrix34d& rg = rotated_grad[e];
-        Eigen::Matrix3d G = full_in.col(t[0]) * rg.col(0).transpose();
-        for (int a = 1; a < 4; ++a) G.noalias() += full_in.col(t[a]) * rg.col(a).transpose();
-        Eigen::Matrix3d sigma = lame.mu * (G + G.transpose());
-        sigma.diagonal().array() += lame.lambda * G.trace();
-        const Matrix34d ye = model.get_rest_shapes()[e].volume * sigma * rg;
-        for (int a = 0; a < 4; ++a) sum.col(t[a]) += ye.col(a);
+      for (int b = part_begin[part]; b < part_begin[part + 1]; ++b) {
+        // R K_e R^T p with rotated gradients r = R g: G = sum_a p_a r_a^T, y_a = V (lambda
+        // tr(G) I + mu (G + G^T)) r_a (ApplyCorotatedStiffness in fewer flops), kTetLanes
+        // elements at once (ApplyStressLanes)
+        const auto& nodes = blocks.nodes[b];
+        TetLanes34 u;
+        for (int l = 0; l < kTetLanes; ++l)
+          for (int a = 0; a < 4; ++a)
+            for (int c = 0; c < 3; ++c) u[3 * a + c][l] = full_in(c, nodes[l][a]);
+        const TetLanes34 y = ApplyStressLanes(rotated_grad[b], blocks.volume[b], lame, 0.0, u);
+        ScatterAdd(blocks, b, y, sum);
       }
     });
     for (const Eigen::Matrix3Xd& sum : part_out) full_out += sum;
     for (int k = 0; k < num_free; ++k)
       out.segment<3>(3 * k) = mass_scale * mass_free.segment<3>(3 * k).cwiseProduct(in.segment<3>(3 * k)) +
                               stiffness_scale * full_out.col(free_nodes[k]);
+  }
+
+  // sum.col(node a of element l) += y_a of lane l, for the elements of block b (not the padding)
+  static void ScatterAdd(const TetBlocks& blocks, int b, const TetLanes34& y, Eigen::Matrix3Xd& sum) {
+    const int lanes = std::min(kTetLanes, blocks.num_tets - kTetLanes * b);
+    for (int l = 0; l < lanes; ++l)
+      for (int a = 0; a < 4; ++a) {
+        double* column = sum.col(blocks.nodes[b][l][a]).data();
+        for (int c = 0; c < 3; ++c) column[c] += y[3 * a + c][l];
+      }
   }
 
   // out = Q A_ref^-1 Q^T in for one or more reduced columns (in may alias nothing)
@@ -575,35 +593,45 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
   // (CalcCorotatedStepLoad; the elastic forces alone are needed only at the supports, for the
   // reactions: CommitStep computes them there)
   s.full_out.setZero();
-  const auto& tets = model.get_mesh().tets;
+  const TetBlocks& blocks = model.get_tet_blocks();
   s.RunParts([&](int part) {
     Eigen::Matrix3Xd& load = part == 0 ? s.full_out : s.part_out[part - 1];
     if (part > 0) load.setZero();
     int inverted = 0;
-    // kPolarBatch elements at a time: their rotations in one CalcPolarRotations
-    const int end = s.part_begin[part + 1];
-    for (int begin = s.part_begin[part]; begin < end; begin += kPolarBatch) {
-      const int m = std::min(kPolarBatch, end - begin);
-      Matrix34d xe[kPolarBatch];
-      Eigen::Matrix3d F[kPolarBatch];
-      bool used_svd[kPolarBatch];
-      for (int k = 0; k < m; ++k) {
-        for (int a = 0; a < 4; ++a) xe[k].col(a) = state.x.col(tets[begin + k][a]);
-        F[k] = CalcDeformationGradient(model.get_rest_shapes()[begin + k], xe[k]);
+    // kTetLanes elements at a time (TetBlocks): their deformation gradients, rotations,
+    // rotated gradients and step loads
+    for (int b = s.part_begin[part]; b < s.part_begin[part + 1]; ++b) {
+      const int begin = kTetLanes * b;
+      const int m = std::min(kTetLanes, blocks.num_tets - begin);
+      const auto& nodes = blocks.nodes[b];
+      const TetLanes34& grad = blocks.grad[b];
+      TetLanes34 x, u;
+      for (int l = 0; l < kTetLanes; ++l)
+        for (int a = 0; a < 4; ++a)
+          for (int c = 0; c < 3; ++c) {
+            x[3 * a + c][l] = state.x(c, nodes[l][a]);
+            u[3 * a + c][l] = s.full_w(c, nodes[l][a]);
+          }
+      // F = sum_a x_a g_a^T, then its rotation in place
+      TetLanes rotation[9];
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) {
+          TetLanes f = x[i] * grad[j];
+          for (int a = 1; a < 4; ++a) f += x[3 * a + i] * grad[3 * a + j];
+          rotation[3 * j + i] = f;
+        }
+      bool used_svd[kTetLanes];
+      CalcPolarRotationLanes(rotation, m, used_svd);
+      for (int l = 0; l < m; ++l) {
+        for (int i = 0; i < 9; ++i) s.rotations[begin + l](i) = rotation[i][l];
+        inverted += used_svd[l];
       }
-      CalcPolarRotations(F, &s.rotations[begin], used_svd, m);
-      for (int k = 0; k < m; ++k) {
-        const int e = begin + k;
-        const Eigen::Vector4i& t = tets[e];
-        const TetRestShape& rest = model.get_rest_shapes()[e];
-        if (used_svd[k]) ++inverted;
-        s.rotated_grad[e] = s.rotations[e] * rest.grad_n;
-        Matrix34d we;
-        for (int a = 0; a < 4; ++a) we.col(a) = s.full_w.col(t[a]);
-        const Matrix34d le = CalcCorotatedStepLoad(rest, s.lame, s.rotated_grad[e], xe[k], we,
-                                                   s.h, s.stiffness_scale);
-        for (int a = 0; a < 4; ++a) load.col(t[a]) += le.col(a);
-      }
+      s.rotated_grad[b] = RotateLanes(rotation, grad);
+      // the step load h f - c R K_e R^T w (CalcCorotatedStepLoad) of u = h x + c w
+      for (int i = 0; i < 12; ++i) u[i] = s.h * x[i] + s.stiffness_scale * u[i];
+      const TetLanes34 le =
+          ApplyStressLanes(s.rotated_grad[b], -blocks.volume[b], s.lame, s.h, u);
+      Impl::ScatterAdd(blocks, b, le, load);
     }
     s.part_inverted[part] = inverted;
   });
@@ -736,28 +764,23 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
 
   // reactions r_d = [(1 + h alpha) M dv + h alpha M v + (h beta + h^2) K (dv + v)]_d / h - f_d,
   // f_d the forces at the step start (x not yet advanced, this step's rotations): elastic +
-  // gravity + external
+  // gravity + external. The elastic part, (h beta + h^2) / h K (dv + v) - f_elastic, is minus
+  // the step load of x and dv + v over h (CalcCorotatedStepLoad: h f - c K w), one stress
+  // evaluation an element
   const auto& tets = model.get_mesh().tets;
-  for (int i : dirichlet) {
-    s.full_out.col(i).setZero();
-    s.support_elastic.col(i).setZero();
-  }
+  for (int i : dirichlet) s.support_elastic.col(i).setZero();
   for (int e : model.get_dirichlet_tets()) {
     const Eigen::Vector4i& t = tets[e];
-    const TetRestShape& rest = model.get_rest_shapes()[e];
     Matrix34d pe, xe;
     for (int a = 0; a < 4; ++a) {
       pe.col(a) = s.full_sum.col(t[a]);
       xe.col(a) = state.x.col(t[a]);
     }
-    const Matrix34d ye = ApplyCorotatedStiffness(rest, s.lame, s.rotations[e], pe);
-    const Matrix34d fe =
-        CalcCorotatedForce(rest, s.lame, s.rotations[e], CalcDeformationGradient(rest, xe));
+    const Matrix34d le = CalcCorotatedStepLoad(model.get_rest_shapes()[e], s.lame,
+                                               Impl::ElementOf(s.rotated_grad, e), xe, pe, s.h,
+                                               s.stiffness_scale);
     for (int a = 0; a < 4; ++a)
-      if (model.get_free_index(t[a]) < 0) {
-        s.full_out.col(t[a]) += ye.col(a);
-        s.support_elastic.col(t[a]) += fe.col(a);
-      }
+      if (model.get_free_index(t[a]) < 0) s.support_elastic.col(t[a]) -= le.col(a) / s.h;
   }
   const double alpha = model.get_config().rayleigh_mass;
   const Eigen::VectorXd& mass = model.get_lumped_mass();
@@ -765,9 +788,8 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
   for (size_t j = 0; j < dirichlet.size(); ++j) {
     const int i = dirichlet[j];
     state.reaction_forces.col(j) =
-        (s.mass_scale * mass[i] * s.full_w.col(i) + s.h * alpha * mass[i] * state.v.col(i) +
-         s.stiffness_scale * s.full_out.col(i)) / s.h -
-        (s.support_elastic.col(i) + mass[i] * g + state.external_forces.col(i));
+        (s.mass_scale * mass[i] * s.full_w.col(i) + s.h * alpha * mass[i] * state.v.col(i)) / s.h +
+        s.support_elastic.col(i) - (mass[i] * g + state.external_forces.col(i));
   }
 
   // advance

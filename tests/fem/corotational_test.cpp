@@ -98,7 +98,7 @@ TEST(CorotationalTest, PolarRotationOfInvertedAndDegenerateIsProperRotation) {
 }
 
 TEST(CorotationalTest, PolarRotationsInBlocksEqualOneByOne) {
-  // 23 matrices (blocks of kPolarBatch and a partial one): stretches from 1e-6 to 0.4 (one to
+  // 23 matrices (blocks of kTetLanes and a partial one): stretches from 1e-6 to 0.4 (one to
   // six Newton iterations, so lanes of a block stop at different iterations), inverted and
   // flattened ones (the SVD branch) among them; each the rotation of its own call
   std::mt19937 rng(5);

@@ -233,7 +233,9 @@ void CheckModelPose(bool iiwa, ModelPose pose, int d, bool to_forecast, int lose
   EXPECT_EQ(wrong_latency, 0) << "the measured latency left " << d << " frames";
   if (lose_every > 0) {
     EXPECT_GE(after_loss, 3) << "no forecast right after a lost target";
-    if (d > 1) EXPECT_GE(after_lost_frame, 3) << "no forecast over a lost frame";
+    if (d > 1) {
+      EXPECT_GE(after_lost_frame, 3) << "no forecast over a lost frame";
+    }
     EXPECT_GE(controller.counts().unapplied_targets, 3u);
   }
 }

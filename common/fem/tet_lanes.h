@@ -1,0 +1,86 @@
+#pragma once
+// Tetrahedra side by side: the element kernels of FemSolver's hot loops (its matrix-free
+// product and the element pass's step load) on kTetLanes elements at once. Entry i of every
+// element's matrix lives in one TetLanes (one AVX2 vector of doubles), so that a kernel's
+// arithmetic is the one-element formula with each scalar replaced by a vector across the
+// elements; only the gathers of the nodal vectors and the scatters of the results stay one
+// element at a time.
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+#include "common/fem/fem_config.h"
+
+namespace nsim {
+
+struct TetRestShape;
+
+/// Elements a TetLanes holds (a 256-bit vector of doubles).
+inline constexpr int kTetLanes = 4;
+using TetLanes = Eigen::Array<double, kTetLanes, 1>;
+
+/// A 3 x 4 matrix of kTetLanes elements (shape-function gradients, nodal vectors): entry (c, a)
+/// of lane l's matrix in m[3 a + c][l], the column-major order of one element's Matrix34d.
+using TetLanes34 = std::array<TetLanes, 12>;
+
+/// The isotropic linear stress's nodal vectors of kTetLanes elements with gradients r
+/// (r_a = R g_a, the rotated shape-function gradients, or g_a at rest): for the nodal input u,
+/// G = sum_a u_a r_a^T - shift I and y_a = scale (lambda tr(G) I + mu (G + G^T)) r_a, each lane
+/// with its own scale (the element's volume times a factor; 0 for a lane without an element).
+/// With shift = 0 and scale = V it is R K_e R^T u (ApplyCorotatedStiffness); with
+/// u = h x + c w, shift = h and scale = -V it is the step load (CalcCorotatedStepLoad).
+inline TetLanes34 ApplyStressLanes(const TetLanes34& r, const TetLanes& scale,
+                                   const LameParameters& lame, double shift,
+                                   const TetLanes34& u) {
+  // G(i, j) = sum_a u_a(i) r_a(j), column-major in g[3 j + i]
+  TetLanes g[9];
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      TetLanes sum = u[i] * r[j];
+      for (int a = 1; a < 4; ++a) sum += u[3 * a + i] * r[3 * a + j];
+      g[3 * j + i] = sum;
+    }
+  for (int i = 0; i < 3; ++i) g[4 * i] -= shift;
+  // scale sigma, symmetric: its diagonal and its three entries above it
+  const TetLanes mu = scale * lame.mu;
+  const TetLanes trace = scale * lame.lambda * (g[0] + g[4] + g[8]);
+  TetLanes s[9];
+  for (int i = 0; i < 3; ++i) s[4 * i] = trace + 2.0 * mu * g[4 * i];
+  s[3] = s[1] = mu * (g[3] + g[1]);
+  s[6] = s[2] = mu * (g[6] + g[2]);
+  s[7] = s[5] = mu * (g[7] + g[5]);
+  TetLanes34 y;
+  for (int a = 0; a < 4; ++a)
+    for (int i = 0; i < 3; ++i)
+      y[3 * a + i] = s[i] * r[3 * a] + s[3 + i] * r[3 * a + 1] + s[6 + i] * r[3 * a + 2];
+  return y;
+}
+
+/// The rotated gradients r_a = R g_a of kTetLanes elements, R column-major in rotation[3 j + i].
+inline TetLanes34 RotateLanes(const TetLanes (&rotation)[9], const TetLanes34& grad) {
+  TetLanes34 r;
+  for (int a = 0; a < 4; ++a)
+    for (int i = 0; i < 3; ++i)
+      r[3 * a + i] = rotation[i] * grad[3 * a] + rotation[3 + i] * grad[3 * a + 1] +
+                     rotation[6 + i] * grad[3 * a + 2];
+  return r;
+}
+
+/// The mesh's tetrahedra in blocks of kTetLanes consecutive elements (block b: elements
+/// kTetLanes b + l), the last block padded with lanes that repeat its first element's nodes
+/// and have zero volume and gradients (they add nothing).
+struct TetBlocks {
+  std::vector<std::array<Eigen::Vector4i, kTetLanes>> nodes;  ///< [block][lane]: the 4 node indices
+  std::vector<TetLanes> volume;                               ///< [block]: rest volumes (m^3)
+  std::vector<TetLanes34> grad;                               ///< [block]: rest gradients g_a (1/m)
+  int num_tets = 0;
+
+  int num_blocks() const { return static_cast<int>(nodes.size()); }
+};
+
+/// The blocks of the tetrahedra `tets` with rest shapes `rest` (the same length).
+TetBlocks MakeTetBlocks(const std::vector<Eigen::Vector4i>& tets,
+                        const std::vector<TetRestShape>& rest);
+
+}  // namespace nsim
