@@ -56,7 +56,7 @@ using Lanes = Eigen::Array<double, W, 1>;
 // every lane has. It converges quadratically to the orthogonal polar factor, a rotation as
 // det > 0.
 template <int W>
-void PolarNewton(Lanes<W> (&x)[9], Lanes<W> det) {
+void PolarNewton(Lanes<W>* x, Lanes<W> det) {
   using A = Lanes<W>;
   A done = A::Zero();  // 1 for a lane that has stopped
   for (int it = 0; it < 30; ++it) {
@@ -106,7 +106,7 @@ Eigen::Matrix3d PolarRotationBySvd(const Eigen::Matrix3d& F) {
 // lanes below m hold matrices, in one block of PolarNewton; the lanes past m and those for the
 // SVD branch (det F <= kPolarSvdThreshold, computed apart) iterate on I (one step, no change)
 template <int W>
-void PolarLanes(Lanes<W> (&x)[9], int m, bool* used_svd) {
+void PolarLanes(Lanes<W>* x, int m, bool* used_svd) {
   // det = x_0 . (x_1 x x_2), the columns x_c = (x[3c], x[3c + 1], x[3c + 2])
   Lanes<W> det = x[0] * (x[4] * x[8] - x[5] * x[7]) + x[1] * (x[5] * x[6] - x[3] * x[8]) +
                  x[2] * (x[3] * x[7] - x[4] * x[6]);
@@ -159,8 +159,8 @@ void CalcPolarRotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used
                           std::min(kTetLanes, count - begin));
 }
 
-void CalcPolarRotationLanes(TetLanes (&x)[9], int m, bool* used_svd) {
-  PolarLanes<kTetLanes>(x, m, used_svd);
+void CalcPolarRotationLanes(TetLanes33& x, int m, bool* used_svd) {
+  PolarLanes<kTetLanes>(x.data(), m, used_svd);
 }
 
 Matrix12d CalcCorotatedStiffness(const TetRestShape& rest, const LameParameters& lame,

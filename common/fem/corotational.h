@@ -52,7 +52,7 @@ void CalcPolarRotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used
 /// The same for the kTetLanes matrices in x (entry i of lane l's matrix, column-major, in
 /// x[i][l]), in place: x holds their rotations on return. Lanes l < m hold matrices
 /// (used_svd[l] set); the others are ignored. FemSolver's element pass calls it.
-void CalcPolarRotationLanes(TetLanes (&x)[9], int m, bool* used_svd);
+void CalcPolarRotationLanes(TetLanes33& x, int m, bool* used_svd);
 
 /// det F at or below which CalcPolarRotation uses the SVD branch (-).
 inline constexpr double kPolarSvdThreshold = 1e-3;

@@ -613,13 +613,7 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
             u[3 * a + c][l] = s.full_w(c, nodes[l][a]);
           }
       // F = sum_a x_a g_a^T, then its rotation in place
-      TetLanes rotation[9];
-      for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 3; ++i) {
-          TetLanes f = x[i] * grad[j];
-          for (int a = 1; a < 4; ++a) f += x[3 * a + i] * grad[3 * a + j];
-          rotation[3 * j + i] = f;
-        }
+      TetLanes33 rotation = OuterSumLanes(x, grad);
       bool used_svd[kTetLanes];
       CalcPolarRotationLanes(rotation, m, used_svd);
       for (int l = 0; l < m; ++l) {

@@ -23,6 +23,21 @@ using TetLanes = Eigen::Array<double, kTetLanes, 1>;
 /// A 3 x 4 matrix of kTetLanes elements (shape-function gradients, nodal vectors): entry (c, a)
 /// of lane l's matrix in m[3 a + c][l], the column-major order of one element's Matrix34d.
 using TetLanes34 = std::array<TetLanes, 12>;
+/// A 3 x 3 matrix of kTetLanes elements, entry (i, j) in m[3 j + i].
+using TetLanes33 = std::array<TetLanes, 9>;
+
+/// sum_a u_a r_a^T of kTetLanes elements (a deformation or displacement gradient: u the nodal
+/// vectors, r the shape-function gradients).
+inline TetLanes33 OuterSumLanes(const TetLanes34& u, const TetLanes34& r) {
+  TetLanes33 g;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      TetLanes sum = u[i] * r[j];
+      for (int a = 1; a < 4; ++a) sum += u[3 * a + i] * r[3 * a + j];
+      g[3 * j + i] = sum;
+    }
+  return g;
+}
 
 /// The isotropic linear stress's nodal vectors of kTetLanes elements with gradients r
 /// (r_a = R g_a, the rotated shape-function gradients, or g_a at rest): for the nodal input u,
@@ -33,14 +48,7 @@ using TetLanes34 = std::array<TetLanes, 12>;
 inline TetLanes34 ApplyStressLanes(const TetLanes34& r, const TetLanes& scale,
                                    const LameParameters& lame, double shift,
                                    const TetLanes34& u) {
-  // G(i, j) = sum_a u_a(i) r_a(j), column-major in g[3 j + i]
-  TetLanes g[9];
-  for (int j = 0; j < 3; ++j)
-    for (int i = 0; i < 3; ++i) {
-      TetLanes sum = u[i] * r[j];
-      for (int a = 1; a < 4; ++a) sum += u[3 * a + i] * r[3 * a + j];
-      g[3 * j + i] = sum;
-    }
+  TetLanes33 g = OuterSumLanes(u, r);
   for (int i = 0; i < 3; ++i) g[4 * i] -= shift;
   // scale sigma, symmetric: its diagonal and its three entries above it
   const TetLanes mu = scale * lame.mu;
@@ -58,7 +66,7 @@ inline TetLanes34 ApplyStressLanes(const TetLanes34& r, const TetLanes& scale,
 }
 
 /// The rotated gradients r_a = R g_a of kTetLanes elements, R column-major in rotation[3 j + i].
-inline TetLanes34 RotateLanes(const TetLanes (&rotation)[9], const TetLanes34& grad) {
+inline TetLanes34 RotateLanes(const TetLanes33& rotation, const TetLanes34& grad) {
   TetLanes34 r;
   for (int a = 0; a < 4; ++a)
     for (int i = 0; i < 3; ++i)

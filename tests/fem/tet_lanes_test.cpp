@@ -82,7 +82,7 @@ TEST(TetLanesTest, StressLanesEqualTheElementStiffnessAndStepLoad) {
   const LameParameters lame = CalcLameParameters(5500.0, 0.45);
   const double h = 0.02, c = 0.02 * 0.01 + 0.02 * 0.02;
   for (int b = 0; b < blocks.num_blocks(); ++b) {
-    TetLanes rotation[9];
+    TetLanes33 rotation;
     for (int l = 0; l < kTetLanes; ++l) {
       const int e = std::min(kTetLanes * b + l, 6);
       for (int i = 0; i < 9; ++i) rotation[i][l] = el.rotation[e](i);
