@@ -234,13 +234,6 @@ struct FemSolver::Impl {
     }
   }
 
-  // element e's matrix of per-block lanes (TetBlocks)
-  static Matrix34d ElementOf(const std::vector<TetLanes34>& lanes, int e) {
-    Matrix34d m;
-    for (int i = 0; i < 12; ++i) m(i) = lanes[e / kTetLanes][i][e % kTetLanes];
-    return m;
-  }
-
   // A_ff = (1 + h alpha) M + (h beta + h^2) sum_e R_e K_e R_e^T into `target`'s values, from
   // the rotated gradients `grads` (R_e grad_n, per block of TetBlocks); reads only what never changes
   // after construction besides its arguments, so the worker may run it
@@ -255,7 +248,7 @@ struct FemSolver::Impl {
     for (int e = 0; e < model.num_tets(); ++e) {
       if (e % 1024 == 0) PassWorkerGate();  // a safe point of the worker (no-op on others)
       const TetRestShape& rest = model.get_rest_shapes()[e];
-      const Matrix34d rg = ElementOf(grads, e);
+      const Matrix34d rg = ElementOfLanes(grads, e);
       const double scale = stiffness_scale * rest.volume;
       for (int bn = 0; bn < 4; ++bn) {
         const int fb = model.get_free_index(tets[e][bn]);
@@ -298,29 +291,15 @@ struct FemSolver::Impl {
         // R K_e R^T p with rotated gradients r = R g: G = sum_a p_a r_a^T, y_a = V (lambda
         // tr(G) I + mu (G + G^T)) r_a (ApplyCorotatedStiffness in fewer flops), kTetLanes
         // elements at once (ApplyStressLanes)
-        const auto& nodes = blocks.nodes[b];
-        TetLanes34 u;
-        for (int l = 0; l < kTetLanes; ++l)
-          for (int a = 0; a < 4; ++a)
-            for (int c = 0; c < 3; ++c) u[3 * a + c][l] = full_in(c, nodes[l][a]);
-        const TetLanes34 y = ApplyStressLanes(rotated_grad[b], blocks.volume[b], lame, 0.0, u);
-        ScatterAdd(blocks, b, y, sum);
+        const TetLanes34 y = ApplyStressLanes(rotated_grad[b], blocks.volume[b], lame, 0.0,
+                                              GatherLanes(blocks, b, full_in));
+        ScatterAddLanes(blocks, b, y, sum);
       }
     });
     for (const Eigen::Matrix3Xd& sum : part_out) full_out += sum;
     for (int k = 0; k < num_free; ++k)
       out.segment<3>(3 * k) = mass_scale * mass_free.segment<3>(3 * k).cwiseProduct(in.segment<3>(3 * k)) +
                               stiffness_scale * full_out.col(free_nodes[k]);
-  }
-
-  // sum.col(node a of element l) += y_a of lane l, for the elements of block b (not the padding)
-  static void ScatterAdd(const TetBlocks& blocks, int b, const TetLanes34& y, Eigen::Matrix3Xd& sum) {
-    const int lanes = std::min(kTetLanes, blocks.num_tets - kTetLanes * b);
-    for (int l = 0; l < lanes; ++l)
-      for (int a = 0; a < 4; ++a) {
-        double* column = sum.col(blocks.nodes[b][l][a]).data();
-        for (int c = 0; c < 3; ++c) column[c] += y[3 * a + c][l];
-      }
   }
 
   // out = Q A_ref^-1 Q^T in for one or more reduced columns (in may alias nothing)
@@ -603,15 +582,9 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
     for (int b = s.part_begin[part]; b < s.part_begin[part + 1]; ++b) {
       const int begin = kTetLanes * b;
       const int m = std::min(kTetLanes, blocks.num_tets - begin);
-      const auto& nodes = blocks.nodes[b];
       const TetLanes34& grad = blocks.grad[b];
-      TetLanes34 x, u;
-      for (int l = 0; l < kTetLanes; ++l)
-        for (int a = 0; a < 4; ++a)
-          for (int c = 0; c < 3; ++c) {
-            x[3 * a + c][l] = state.x(c, nodes[l][a]);
-            u[3 * a + c][l] = s.full_w(c, nodes[l][a]);
-          }
+      const TetLanes34 x = GatherLanes(blocks, b, state.x);
+      TetLanes34 u = GatherLanes(blocks, b, s.full_w);
       // F = sum_a x_a g_a^T, then its rotation in place
       TetLanes33 rotation = OuterSumLanes(x, grad);
       bool used_svd[kTetLanes];
@@ -625,7 +598,7 @@ FemStepStats FemSolver::BeginStep(FemState& state) {
       for (int i = 0; i < 12; ++i) u[i] = s.h * x[i] + s.stiffness_scale * u[i];
       const TetLanes34 le =
           ApplyStressLanes(s.rotated_grad[b], -blocks.volume[b], s.lame, s.h, u);
-      Impl::ScatterAdd(blocks, b, le, load);
+      ScatterAddLanes(blocks, b, le, load);
     }
     s.part_inverted[part] = inverted;
   });
@@ -771,7 +744,7 @@ void FemSolver::CommitStep(FemState& state, const Eigen::Ref<const Eigen::Vector
       xe.col(a) = state.x.col(t[a]);
     }
     const Matrix34d le = CalcCorotatedStepLoad(model.get_rest_shapes()[e], s.lame,
-                                               Impl::ElementOf(s.rotated_grad, e), xe, pe, s.h,
+                                               ElementOfLanes(s.rotated_grad, e), xe, pe, s.h,
                                                s.stiffness_scale);
     for (int a = 0; a < 4; ++a)
       if (model.get_free_index(t[a]) < 0) s.support_elastic.col(t[a]) -= le.col(a) / s.h;

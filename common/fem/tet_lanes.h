@@ -7,6 +7,7 @@
 // element at a time.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -90,5 +91,36 @@ struct TetBlocks {
 /// The blocks of the tetrahedra `tets` with rest shapes `rest` (the same length).
 TetBlocks MakeTetBlocks(const std::vector<Eigen::Vector4i>& tets,
                         const std::vector<TetRestShape>& rest);
+
+/// The nodal vectors of block b's elements (padding lanes: their repeated node's), from the
+/// columns of `nodal` (3 x #nodes).
+inline TetLanes34 GatherLanes(const TetBlocks& blocks, int b, const Eigen::Matrix3Xd& nodal) {
+  static_assert(kTetLanes == 4, "one TetLanes constructor argument a lane");
+  const auto& n = blocks.nodes[b];
+  TetLanes34 u;
+  for (int a = 0; a < 4; ++a)
+    for (int c = 0; c < 3; ++c)
+      u[3 * a + c] = TetLanes(nodal(c, n[0][a]), nodal(c, n[1][a]), nodal(c, n[2][a]),
+                              nodal(c, n[3][a]));
+  return u;
+}
+
+/// nodal.col(node a of element l) += y_a of lane l, for block b's elements (not its padding).
+inline void ScatterAddLanes(const TetBlocks& blocks, int b, const TetLanes34& y,
+                            Eigen::Matrix3Xd& nodal) {
+  const int lanes = std::min(kTetLanes, blocks.num_tets - kTetLanes * b);
+  for (int l = 0; l < lanes; ++l)
+    for (int a = 0; a < 4; ++a) {
+      double* column = nodal.col(blocks.nodes[b][l][a]).data();
+      for (int c = 0; c < 3; ++c) column[c] += y[3 * a + c][l];
+    }
+}
+
+/// Element e's 3 x 4 matrix from per-block lanes (block e / kTetLanes, lane e % kTetLanes).
+inline Eigen::Matrix<double, 3, 4> ElementOfLanes(const std::vector<TetLanes34>& lanes, int e) {
+  Eigen::Matrix<double, 3, 4> m;
+  for (int i = 0; i < 12; ++i) m(i) = lanes[e / kTetLanes][i][e % kTetLanes];
+  return m;
+}
 
 }  // namespace nsim

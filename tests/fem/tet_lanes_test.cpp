@@ -76,6 +76,29 @@ TEST(TetLanesTest, BlocksHoldTheTetsAndPadWithNothing) {
   }
 }
 
+TEST(TetLanesTest, GatherScatterAndElementOfMatchTheTets) {
+  const Elements el = RandomElements(7, 3);
+  const TetBlocks blocks = MakeTetBlocks(el.tets, el.rest);
+  const Eigen::Matrix3Xd nodal = Eigen::Matrix3Xd::Random(3, 28);
+  Eigen::Matrix3Xd sum = Eigen::Matrix3Xd::Zero(3, 28);
+  std::vector<TetLanes34> lanes;
+  for (int b = 0; b < blocks.num_blocks(); ++b) {
+    const TetLanes34 u = GatherLanes(blocks, b, nodal);
+    for (int l = 0; l < kTetLanes; ++l)
+      for (int a = 0; a < 4; ++a)
+        for (int c = 0; c < 3; ++c)
+          EXPECT_EQ(u[3 * a + c][l], nodal(c, blocks.nodes[b][l][a])) << b << " " << l;
+    ScatterAddLanes(blocks, b, u, sum);  // each node belongs to one tet here: sum = nodal there
+    lanes.push_back(u);
+  }
+  // the padding lane (element 7) adds nothing: every node of the 7 tets once, no node twice
+  EXPECT_EQ(sum, nodal);
+  for (int e = 0; e < 7; ++e) {
+    const Matrix34d m = ElementOfLanes(lanes, e);
+    for (int a = 0; a < 4; ++a) EXPECT_EQ(Eigen::Vector3d(m.col(a)), nodal.col(el.tets[e][a])) << e;
+  }
+}
+
 TEST(TetLanesTest, StressLanesEqualTheElementStiffnessAndStepLoad) {
   const Elements el = RandomElements(7, 2);
   const TetBlocks blocks = MakeTetBlocks(el.tets, el.rest);
