@@ -92,11 +92,21 @@ def main():
         median = [l for l in lines if "DirectSceneSequence/Background/Rest/2660` p50" in l]
         p99 = [l for l in lines if "DirectSceneSequence/Background/Rest/2660` p99" in l]
         big = [l for l in lines if "`LiverStep/10000`" in l]
-        check(median and "| 4 ms | 2x | 12.5x | <= 5 ms | yes |" in median[0], f"median row {median}")
-        check(p99 and "| 9 ms | 4.5x |" in p99[0] and "| no |" in p99[0], f"p99 row {p99}")
+        check(median and "| 4 ms | 2x | 12.5x | – | <= 5 ms | yes |" in median[0], f"median row {median}")
+        check(p99 and "| 9 ms | 4.5x |" in p99[0] and "| 2.25x | <= 7.5 ms, <= 1.5x p50 | no |" in p99[0],
+              f"p99 row {p99}")
         check(big and "| 40 ms |" in big[0] and "| no |" in big[0], f"10000 row (the median) {big}")
         md = open(os.path.join(out, "bench.md")).read()
         check("## The speed goals" in md, "the goals in bench.md too")
+        for p50, p99_ms, met in ((4.0, 6.5, "no"), (4.5, 6.5, "yes")):  # 1.62x / 1.44x the median
+            seq[-1].update({"p50_ms": p50, "p99_ms": p99_ms})
+            with open(os.path.join(out, "raw", "current__fem_bench.json"), "w") as f:
+                json.dump({"context": {}, "benchmarks": entries + seq}, f)
+            subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                            "--two-cores", "none", "--readme", readme, out], check=True)
+            row = [l for l in open(readme).read().splitlines()
+                   if "DirectSceneSequence/Background/Rest/2660` p99" in l]
+            check(row and row[0].endswith(f"| {met} |"), f"tail {p99_ms} / {p50}: {met} in {row}")
         with open(readme, "w") as f:
             f.write("no markers\n")
         r = subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
