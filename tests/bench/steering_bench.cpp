@@ -9,6 +9,8 @@
 // needle ~3 cm into the model's liver: the "control step" goal.
 // BM_ControlStepScenarioWithoutLoad: the same without the liver's load objective
 // (controller.liver_load 0: the thesis's objectives), for its cost.
+// The control-step benchmarks also report the distribution of their steps (p50_ms, p90_ms,
+// p99_ms, max_ms; tests/bench/step_times.h) over each repetition's iterations.
 // Run single-threaded: OPENBLAS_NUM_THREADS=1 steering_bench --benchmark_repetitions=5
 // --benchmark_report_aggregates_only=true
 
@@ -21,6 +23,7 @@
 #include "common/robot/iiwa14_ik.h"
 #include "common/steering/steering_controller.h"
 #include "inverse_sim/scenario_loader.h"
+#include "tests/bench/step_times.h"
 #include "tests/steering/steering_test_scene.h"
 
 namespace nsim {
@@ -69,12 +72,14 @@ void TimeControlSteps(benchmark::State& state, SteeringController& controller,
                       const SteeringInput& input) {
   double jacobian = 0.0, simulation = 0.0;
   int rows = 0;
+  StepTimes times(static_cast<size_t>(state.max_iterations));
   for (auto _ : state) {
-    const SteeringOutput out = controller.Update(input);
+    const SteeringOutput out = times.Time([&] { return controller.Update(input); });
     jacobian += out.timings.jacobian;
     simulation += out.timings.simulation;
     rows = out.model.num_rows;
   }
+  times.Report(state);  // the control steps' distribution: p50_ms, p99_ms, ...
   state.counters["jacobian_ms"] = 1e3 * jacobian / state.iterations();
   state.counters["model_step_ms"] = 1e3 * simulation / state.iterations();
   state.counters["rows"] = rows;
