@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "common/core/error.h"
@@ -48,6 +49,9 @@ namespace {
 
 template <int W>
 using Lanes = Eigen::Array<double, W, 1>;
+// a 3 x 3 matrix of W lanes, column-major (entry (i, j) in x[3 j + i]); W = kTetLanes is TetLanes33
+template <int W>
+using Matrix3Lanes = std::array<Lanes<W>, 9>;
 
 // Higham's Newton iteration X <- (g X + (g X)^-T) / 2 with determinant scaling g, on W
 // matrices at once (det > 0 each). x[i] holds entry i (column-major) of every lane's matrix,
@@ -56,7 +60,7 @@ using Lanes = Eigen::Array<double, W, 1>;
 // every lane has. It converges quadratically to the orthogonal polar factor, a rotation as
 // det > 0.
 template <int W>
-void PolarNewton(Lanes<W>* x, Lanes<W> det) {
+void PolarNewton(Matrix3Lanes<W>& x, Lanes<W> det) {
   using A = Lanes<W>;
   A done = A::Zero();  // 1 for a lane that has stopped
   for (int it = 0; it < 30; ++it) {
@@ -106,7 +110,7 @@ Eigen::Matrix3d PolarRotationBySvd(const Eigen::Matrix3d& F) {
 // lanes below m hold matrices, in one block of PolarNewton; the lanes past m and those for the
 // SVD branch (det F <= kPolarSvdThreshold, computed apart) iterate on I (one step, no change)
 template <int W>
-void PolarLanes(Lanes<W>* x, int m, bool* used_svd) {
+void PolarLanes(Matrix3Lanes<W>& x, int m, bool* used_svd) {
   // det = x_0 . (x_1 x x_2), the columns x_c = (x[3c], x[3c + 1], x[3c + 2])
   Lanes<W> det = x[0] * (x[4] * x[8] - x[5] * x[7]) + x[1] * (x[5] * x[6] - x[3] * x[8]) +
                  x[2] * (x[3] * x[7] - x[4] * x[6]);
@@ -135,7 +139,7 @@ void PolarLanes(Lanes<W>* x, int m, bool* used_svd) {
 // PolarLanes for the matrices F[0..m), m <= W, into R[0..m)
 template <int W>
 void PolarBlock(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used_svd, int m) {
-  Lanes<W> x[9];
+  Matrix3Lanes<W> x;
   for (int l = 0; l < W; ++l)
     for (int i = 0; i < 9; ++i) x[i][l] = l < m ? F[l](i) : 0.0;
   PolarLanes<W>(x, m, used_svd);
@@ -160,7 +164,7 @@ void CalcPolarRotations(const Eigen::Matrix3d* F, Eigen::Matrix3d* R, bool* used
 }
 
 void CalcPolarRotationLanes(TetLanes33& x, int m, bool* used_svd) {
-  PolarLanes<kTetLanes>(x.data(), m, used_svd);
+  PolarLanes<kTetLanes>(x, m, used_svd);
 }
 
 Matrix12d CalcCorotatedStiffness(const TetRestShape& rest, const LameParameters& lame,
