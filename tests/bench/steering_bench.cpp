@@ -9,6 +9,11 @@
 // needle ~3 cm into the model's liver: the issue's "control step" goal.
 // BM_ControlStepScenarioWithoutLoad: the same without the liver's load objective
 // (controller.liver_load 0: the thesis's objectives), for its cost.
+// BM_ControlStepScenarioBreathing: the same controller, but each step's input moves as in the
+// final phase of a run: the markers and the flange translated by the scenario's breathing
+// displacement at that step's time (50 Hz frames), so the model's solves start from a moving
+// state instead of settling at rest under a fixed input (docs/performance.md, "The control
+// step with the markers breathing").
 // The control-step benchmarks also report the distribution of their steps (p50_ms, p90_ms,
 // p99_ms, max_ms; tests/bench/step_times.h) over each repetition's iterations.
 // Run single-threaded: OPENBLAS_NUM_THREADS=1 steering_bench --benchmark_repetitions=5
@@ -16,9 +21,11 @@
 
 #include <benchmark/benchmark.h>
 
+#include <functional>
 #include <memory>
 #include <string>
 
+#include "common/breathing/breathing.h"
 #include "common/mesh/gmsh_reader.h"
 #include "common/robot/iiwa14_ik.h"
 #include "common/steering/steering_controller.h"
@@ -31,6 +38,7 @@ namespace {
 
 constexpr int kInsertionSteps = 25;  // 2 mm a step: ~3 cm into the liver
 constexpr double kAdvance = 0.002;   // m
+constexpr double kFramePeriod = 0.02;  // s: the scenarios' 50 Hz
 
 struct Setup {
   explicit Setup(bool flexible = false) {
@@ -66,14 +74,22 @@ void RunPlainStep(benchmark::State& state, bool flexible) {
 void BM_PlainStep(benchmark::State& state) { RunPlainStep(state, false); }
 void BM_PlainStepFlexible(benchmark::State& state) { RunPlainStep(state, true); }
 
-// the timed loop of the control-step benchmarks: the same input every iteration; the counters
-// are the Jacobian's and the model step's shares (ms) and the constraint rows
+// the timed loop of the control-step benchmarks: the same input every iteration, or the one
+// `advance` makes before each step (k = 0, 1, ...; not timed); the counters are the
+// Jacobian's and the model step's shares (ms) and the constraint rows
 void TimeControlSteps(benchmark::State& state, SteeringController& controller,
-                      const SteeringInput& input) {
+                      SteeringInput input,
+                      const std::function<void(int, SteeringInput&)>& advance = nullptr) {
   double jacobian = 0.0, simulation = 0.0;
   int rows = 0;
+  int k = 0;
   StepTimes times(static_cast<size_t>(state.max_iterations));
   for (auto _ : state) {
+    if (advance) {
+      state.PauseTiming();
+      advance(k++, input);
+      state.ResumeTiming();
+    }
     const SteeringOutput out = times.Time([&] { return controller.Update(input); });
     jacobian += out.timings.jacobian;
     simulation += out.timings.simulation;
@@ -144,7 +160,7 @@ void BM_SnapshotSolveContact(benchmark::State& state) { RunSnapshotSolve(state, 
 
 // the default scenario's controller: the pose advanced along its plan from the start pose, 2 mm
 // a step, until the tip is kScenarioDepth past the entry, the markers at rest
-void RunControlStepScenario(benchmark::State& state, bool liver_load) {
+void RunControlStepScenario(benchmark::State& state, bool liver_load, bool breathing = false) {
   constexpr double kScenarioDepth = 0.045;  // the liver starts ~1.5 cm below the skin entry
   InverseScenario scenario = LoadInverseScenario(
       std::string(NSIM_SOURCE_DIR) + "/configs/scenarios/liver_breathing.yaml");
@@ -167,10 +183,25 @@ void RunControlStepScenario(benchmark::State& state, bool liver_load) {
     state.SkipWithError("the model's needle is not in its liver after the insertion");
     return;
   }
-  TimeControlSteps(state, controller, input);
+  if (breathing) {
+    // BreathingConfig's defaults are the default scenario's `breathing:` (4 s, 12 mm
+    // superior-inferior peak to peak), from the exhale rest, one frame a step
+    const BreathingModel motion{BreathingConfig{}};
+    const SteeringInput rest = input;
+    TimeControlSteps(state, controller, input, [&](int k, SteeringInput& in) {
+      const Eigen::Vector3d d = motion.CalcDisplacement(kFramePeriod * k);
+      for (size_t m = 0; m < in.p_WM.size(); ++m) in.p_WM[m] = rest.p_WM[m] + d;
+      in.X_WE.translation() = rest.X_WE.translation() + d;
+    });
+  } else {
+    TimeControlSteps(state, controller, input);
+  }
   state.counters["nodes"] = mesh.num_nodes();
 }
 void BM_ControlStepScenario(benchmark::State& state) { RunControlStepScenario(state, true); }
+void BM_ControlStepScenarioBreathing(benchmark::State& state) {
+  RunControlStepScenario(state, true, true);
+}
 void BM_ControlStepScenarioWithoutLoad(benchmark::State& state) {
   RunControlStepScenario(state, false);
 }
@@ -184,6 +215,7 @@ void BM_ControlStep12Flexible(benchmark::State& state) {
 BENCHMARK(BM_PlainStep)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep12)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStepScenario)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_ControlStepScenarioBreathing)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStepScenarioWithoutLoad)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_ControlStep14)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PlainStepFlexible)->Unit(benchmark::kMillisecond)->MinTime(2.0);
