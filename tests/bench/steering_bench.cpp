@@ -76,11 +76,12 @@ void BM_PlainStepFlexible(benchmark::State& state) { RunPlainStep(state, true); 
 
 // the timed loop of the control-step benchmarks: the same input every iteration, or the one
 // `advance` makes before each step (k = 0, 1, ...; not timed); the counters are the
-// Jacobian's and the model step's shares (ms) and the constraint rows
+// Jacobian's and the model step's shares (ms), the model liver's PCG iterations a step and
+// the constraint rows
 void TimeControlSteps(benchmark::State& state, SteeringController& controller,
                       SteeringInput input,
                       const std::function<void(int, SteeringInput&)>& advance = nullptr) {
-  double jacobian = 0.0, simulation = 0.0;
+  double jacobian = 0.0, simulation = 0.0, cg_iterations = 0.0;
   int rows = 0;
   int k = 0;
   StepTimes times(static_cast<size_t>(state.max_iterations));
@@ -91,6 +92,7 @@ void TimeControlSteps(benchmark::State& state, SteeringController& controller,
       state.ResumeTiming();
     }
     const SteeringOutput out = times.Time([&] { return controller.Update(input); });
+    cg_iterations += out.model.fem.cg_iterations;
     jacobian += out.timings.jacobian;
     simulation += out.timings.simulation;
     rows = out.model.num_rows;
@@ -98,6 +100,7 @@ void TimeControlSteps(benchmark::State& state, SteeringController& controller,
   times.Report(state);  // the control steps' distribution: p50_ms, p99_ms, ...
   state.counters["jacobian_ms"] = 1e3 * jacobian / state.iterations();
   state.counters["model_step_ms"] = 1e3 * simulation / state.iterations();
+  state.counters["cg_iterations"] = cg_iterations / state.iterations();  // the model liver's PCG
   state.counters["rows"] = rows;
 }
 
