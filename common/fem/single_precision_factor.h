@@ -5,7 +5,7 @@
 //
 // What it is for: the preconditioner of the FEM solver's conjugate gradient. A supernodal
 // triangular solve with one right-hand side is bound by reading L (memory bound: on the
-// 2660-node liver L has 1.75 M entries, 14 MB in double, read twice per solve), so halving the
+// 2660-node liver L has 1.53 M entries, 12 MB in double, read twice per solve), so halving the
 // bytes of L roughly halves its cost. Its accuracy, a relative error of about cond(A) x 6e-8
 // in the preconditioned vector, is far below the error of the preconditioner itself (a factor
 // of an earlier A, warped by nodal rotations), and the conjugate gradient is still iterated to
