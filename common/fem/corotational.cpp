@@ -2,7 +2,6 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <array>
 #include <cmath>
 
 #include "common/core/error.h"
@@ -46,12 +45,6 @@ Eigen::Matrix3d CalcDeformationGradient(const TetRestShape& rest, const Matrix34
 }
 
 namespace {
-
-template <int W>
-using Lanes = Eigen::Array<double, W, 1>;
-// a 3 x 3 matrix of W lanes, column-major (entry (i, j) in x[3 j + i]); W = kTetLanes is TetLanes33
-template <int W>
-using Matrix3Lanes = std::array<Lanes<W>, 9>;
 
 // Higham's Newton iteration X <- (g X + (g X)^-T) / 2 with determinant scaling g, on W
 // matrices at once (det > 0 each). x[i] holds entry i (column-major) of every lane's matrix,

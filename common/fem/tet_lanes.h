@@ -17,15 +17,22 @@ namespace nsim {
 
 struct TetRestShape;
 
+/// W doubles, one per element (a lane each), and a 3 x 3 matrix of W elements, entry (i, j)
+/// of lane l's matrix in m[3 j + i][l] (column-major, as one element's Matrix3d).
+template <int W>
+using Lanes = Eigen::Array<double, W, 1>;
+template <int W>
+using Matrix3Lanes = std::array<Lanes<W>, 9>;
+
 /// Elements a TetLanes holds (a 256-bit vector of doubles).
 inline constexpr int kTetLanes = 4;
-using TetLanes = Eigen::Array<double, kTetLanes, 1>;
+using TetLanes = Lanes<kTetLanes>;
 
 /// A 3 x 4 matrix of kTetLanes elements (shape-function gradients, nodal vectors): entry (c, a)
 /// of lane l's matrix in m[3 a + c][l], the column-major order of one element's Matrix34d.
 using TetLanes34 = std::array<TetLanes, 12>;
-/// A 3 x 3 matrix of kTetLanes elements, entry (i, j) in m[3 j + i].
-using TetLanes33 = std::array<TetLanes, 9>;
+/// A 3 x 3 matrix of kTetLanes elements.
+using TetLanes33 = Matrix3Lanes<kTetLanes>;
 
 /// sum_a u_a r_a^T of kTetLanes elements (a deformation or displacement gradient: u the nodal
 /// vectors, r the shape-function gradients).
