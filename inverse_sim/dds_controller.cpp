@@ -1,5 +1,6 @@
 #include "inverse_sim/dds_controller.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <deque>
 #include <iostream>
@@ -43,12 +44,13 @@ class ControllerPump {
   int Run() {
     const double start = MonotonicSeconds();
     while (true) {
-      if (queue_.empty()) frames_.Wait(0.02);
+      if (queue_.empty()) frames_.Wait(WaitTime(MonotonicSeconds()));
       const double now = MonotonicSeconds();
       if (own_.state == RunState::kStarting && frames_.health().writers_matched > 0)
         Publish(RunState::kRunning, "readers matched");
-      TakeFrames();
+      TakeFrames(now);
       if (const int code = AnswerFrames(); code >= 0) return Finish(code);
+      SendDueTargets(MonotonicSeconds());
       if (const int code = ReadStatus(now); code >= 0) return Finish(code);
       if (now - last_status_at_ > 0.5) Report(now);
       if (finishing_ && (last_answered_ >= static_cast<int64_t>(final_seq_) ||
@@ -102,7 +104,16 @@ class ControllerPump {
     own_.stamp.seq++;
   }
 
-  void TakeFrames() {
+  // the frame reader's wait: at most 20 ms, and not past the next delayed frame or target
+  double WaitTime(double now) const {
+    double wait = 0.02;
+    if (!arriving_.empty()) wait = std::min(wait, arriving_.front().first - now);
+    if (!leaving_.empty()) wait = std::min(wait, leaving_.front().due - now);
+    return std::max(0.0, wait);
+  }
+
+  // the received frames join the queue, after options_.link_delay when there is one
+  void TakeFrames(double now) {
     received_.clear();
     frames_.Take(received_);
     for (const SensorFrame& f : received_) {
@@ -110,7 +121,28 @@ class ControllerPump {
         ++late_;
         continue;
       }
-      queue_.push_back(f);
+      if (options_.link_delay > 0)
+        arriving_.emplace_back(now + options_.link_delay, f);
+      else
+        queue_.push_back(f);
+    }
+    while (!arriving_.empty() && arriving_.front().first <= now) {
+      queue_.push_back(arriving_.front().second);
+      arriving_.pop_front();
+    }
+  }
+
+  // writes a target answering a frame sent at `frame_wall_time_ns`
+  void Send(const RobotTarget& target, int64_t frame_wall_time_ns) {
+    targets_.Write(target);
+    if (mirror_) mirror_->PublishTarget(target);
+    info_.frame_to_target.Add(1e-9 * static_cast<double>(WallTimeNs() - frame_wall_time_ns));
+  }
+
+  void SendDueTargets(double now) {
+    while (!leaving_.empty() && leaving_.front().due <= now) {
+      Send(leaving_.front().target, leaving_.front().frame_wall_time_ns);
+      leaving_.pop_front();
     }
   }
 
@@ -151,9 +183,10 @@ class ControllerPump {
     last_answered_ = static_cast<int64_t>(frame.stamp.seq);
     if (loop_.counts().answered > answered_before) recorder_.AddAnswer(loop_);
     if (!target) return;
-    targets_.Write(*target);
-    if (mirror_) mirror_->PublishTarget(*target);
-    info_.frame_to_target.Add(1e-9 * static_cast<double>(WallTimeNs() - frame.stamp.wall_time_ns));
+    if (options_.link_delay > 0)
+      leaving_.push_back({MonotonicSeconds() + options_.link_delay, *target, frame.stamp.wall_time_ns});
+    else
+      Send(*target, frame.stamp.wall_time_ns);
   }
 
   // direct_sim's status: its scenario must be ours; once it has finished, the frames it sent
@@ -223,6 +256,14 @@ class ControllerPump {
   SimStatus own_;
   SequenceTracker seqs_;
   std::deque<SensorFrame> queue_;
+  // --link-delay: frames not yet taken up and targets not yet written, with their due times
+  std::deque<std::pair<double, SensorFrame>> arriving_;
+  struct Leaving {
+    double due;
+    RobotTarget target;
+    int64_t frame_wall_time_ns;
+  };
+  std::deque<Leaving> leaving_;
   std::vector<SensorFrame> received_;
   std::vector<SimStatus> statuses_;
   uint64_t late_ = 0;

@@ -23,6 +23,10 @@ struct ControllerPumpOptions {
   /// this process, stopped and resumed, seeing its leases expire) may come back
   double direct_timeout = 30.0;
   uint64_t scenario_hash = 0;    ///< ours; direct_sim's must equal it
+  /// realtime only: each frame is taken up this long after it arrived and each target written
+  /// this long after it was computed (s, each way; 0: none): a slower network emulated, the
+  /// latency the controller then measures and predicts over
+  double link_delay = 0.0;
   bool quiet = false;
   /// --ros2: every target also on /nsim/target_pose (messages/ros2.h)
   std::optional<transport::Ros2Config> ros2;

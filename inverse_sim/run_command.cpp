@@ -57,6 +57,11 @@ int RunInverseSim(int argc, char** argv) {
               "stalled and come back, and it waits run.takeover_timeout (30 s) for this "
               "controller",
               "30")
+      .Option("link-delay", "S",
+              "realtime: take each frame up S seconds after it arrived and write each target S "
+              "seconds after it was computed (a slower network, each way; the controller "
+              "measures the latency and predicts over it)",
+              "0")
       .Flag("quiet", "no progress lines")
       .Flag("ros2-io",
             "take markers, robot state and entry point from the ROS 2 topics and publish the "
@@ -83,6 +88,12 @@ int RunInverseSim(int argc, char** argv) {
       !(options.start_timeout > 0 && options.start_timeout <= 86400) ||
       !(options.direct_timeout > 0 && options.direct_timeout <= 86400))
     throw InputError("--timeout, --start-timeout and --direct-timeout must be in (0, 86400] (s)");
+  options.link_delay = cli.GetDouble("link-delay");
+  if (!(options.link_delay >= 0 && options.link_delay <= 10))
+    throw InputError("--link-delay must be in [0, 10] (s), got " + cli.GetString("link-delay"));
+  if (options.link_delay > 0 && (options.lockstep || cli.GetFlag("ros2-io")))
+    throw InputError("--link-delay is for realtime runs over DDS (lockstep: the scenario's "
+                     "run.latency_steps or direct_sim --latency-steps)");
   options.quiet = cli.GetFlag("quiet");
   options.scenario_hash = scenario.scenario_hash;
   options.transport = transport::TransportFromCli(cli);
@@ -112,6 +123,7 @@ int RunInverseSim(int argc, char** argv) {
   info.mesh = scenario.mesh_path;
   info.scenario_hash = scenario.scenario_hash;
   info.lockstep = scenario.lockstep;
+  info.link_delay = options.link_delay;
   info.domain = options.transport.domain_id;
   info.partition = options.transport.partition;
   if (options.transport.security.enabled()) info.dds_identity = options.transport.security.identity;

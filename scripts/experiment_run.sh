@@ -5,7 +5,7 @@
 #
 #   scripts/experiment_run.sh run --out DIR --bin BIN [--transport in_process|dds|two_hosts]
 #       [--loss PCT] [--mode lockstep|realtime] [--latency-steps N] [--duration S]
-#       [--localization-delay S] [--timeout S]
+#       [--localization-delay S] [--link-delay S] [--timeout S]
 #       [--partition-prefix P] [--domain N]  SETTING RUN SEED E CONFIG FLAGS
 #   scripts/experiment_run.sh row DIR/SETTING/run_RUN SETTING RUN SEED E
 #
@@ -25,7 +25,9 @@
 # run --in-process --loss, seeded by SEED): the loss of a network, reproducible to the bit.
 # --mode realtime (dds, two_hosts): both loops on the wall clock, the latency whatever the machine
 # makes it (the controller measures it; --latency-steps does not apply); lockstep (default):
-# the latency of --latency-steps, simulated, results reproducible to the bit.
+# the latency of --latency-steps, simulated, results reproducible to the bit. --link-delay S
+# (realtime): the controller takes each frame up and writes each target S seconds late
+# (inverse_sim run --link-delay), a slower network than this machine's.
 # One core per run: OPENBLAS_NUM_THREADS, OMP_NUM_THREADS and OMP_THREAD_LIMIT are set to 1
 # here, so it holds whatever started the job (parallel, ssh, Slurm). Prints one progress line;
 # exits with direct_sim's exit code (0 success, 1 runtime failure, 2 bad input).
@@ -59,7 +61,7 @@ fi
 shift
 
 out=""; bin=""; transport=in_process; mode=lockstep; latency=1; duration=20; delay=""; timeout=600
-prefix="exp$$"; domain=0; loss=""
+prefix="exp$$"; domain=0; loss=""; link_delay=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
@@ -70,6 +72,7 @@ while [ $# -gt 0 ]; do
     --latency-steps) latency="$2"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
     --localization-delay) delay="$2"; shift 2 ;;
+    --link-delay) link_delay="$2"; shift 2 ;;
     --timeout) timeout="$2"; shift 2 ;;
     --partition-prefix) prefix="$2"; shift 2 ;;
     --domain) domain="$2"; shift 2 ;;
@@ -87,6 +90,7 @@ if [ -n "$loss" ]; then
   [ "$transport" != dds ] || die "--loss needs --transport two_hosts or in_process (over dds on this machine nothing is lost)"
   [[ "$loss" =~ ^[0-9]+$ ]] && [ "$loss" -le 100 ] || die "--loss must be 0..100 (percent), got '$loss'"
 fi
+[ -z "$link_delay" ] || [ "$mode" = realtime ] || die "--link-delay is for --mode realtime (lockstep: --latency-steps)"
 [ "$transport" != two_hosts ] || [ "$(id -u)" -eq 0 ] || die "--transport two_hosts needs root (ip netns, nft)"
 [ -x "$bin/direct_sim" ] || die "no direct_sim in --bin '$bin' (build first, or set NSIM_BUILD_DIR)"
 [ -f "$cfg" ] || die "no such scenario: $cfg"
@@ -135,7 +139,7 @@ else
   direct_ns=(); inverse_ns=()
   [ "$transport" = dds ] || { direct_ns=(ip netns exec "$NETNS_A"); inverse_ns=(ip netns exec "$NETNS_B"); }
   "${inverse_ns[@]}" "$bin/inverse_sim" run --config "$cfg" --out "$dir/inverse" --mode "$mode" --timeout "$timeout" \
-    "${ctl[@]}" --quiet "${dds[@]}" > "$dir/inverse.log" 2>&1 &
+    "${ctl[@]}" ${link_delay:+--link-delay "$link_delay"} --quiet "${dds[@]}" > "$dir/inverse.log" 2>&1 &
   ip=$!; pids=("$ip")
   timeout -s KILL "$timeout" "${direct_ns[@]}" "$bin/direct_sim" run "${common[@]}" --out "$dir/direct" "${dds[@]}" \
     > "$dir/direct.log" 2>&1 &

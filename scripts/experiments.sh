@@ -11,7 +11,7 @@
 #                          [--bevel] [--dof7]
 #                          [--model-bevel] [--flexible]
 #                          [--settings REGEX] [--no-build] [--transport in_process|dds|two_hosts]
-#                          [--loss PCT] [--jobs N] [--timeout S]
+#                          [--loss PCT] [--link-delay S] [--jobs N] [--timeout S]
 #                          [--hosts H1,H2,... | --slurm] [--dry-run]
 #   scripts/experiments.sh --collect DIR
 #   scripts/experiments.sh --replay MARKERS.csv [--horizon 0.1,0.2] [--no-build]
@@ -35,6 +35,8 @@
 # --mode realtime: every run in realtime mode (both loops on the wall clock, over DDS: --transport
 # dds, or two_hosts when given) instead of lockstep: the latency is whatever the machine makes it
 # (the controller measures it; no --latency-steps) and runs are not reproducible to the bit.
+# --link-delay S (realtime): each controller takes its frames up and writes its targets S
+# seconds late (inverse_sim run --link-delay): a slower network, the latency measured all the same.
 # Each run is two processes that want a core each: --jobs defaults to one run per two cores. table.txt
 # adds per setting what the runs got: the controller's measured frame-to-applied delay (median),
 # direct_sim's rate, its step p99 and its steps over the step budget (runs.csv's loop_latency_ms
@@ -101,13 +103,13 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=26
 latency=1; gain=""; noise=""; noise_given=0; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
 model_bevel=0; flexible=0
-transport=in_process; transport_given=0; loss=""; mode=lockstep; latency_given=0; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
+transport=in_process; transport_given=0; loss=""; link_delay=""; mode=lockstep; latency_given=0; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
 die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # the options that take a value must have one
   case "$1" in
-    --runs|--seed|--scenario|--duration|--latency-steps|--mode|--gain|--e-spread|--marker-noise|--settings|--transport|--loss|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+    --runs|--seed|--scenario|--duration|--latency-steps|--mode|--gain|--e-spread|--marker-noise|--settings|--transport|--loss|--link-delay|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
       [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
   esac
   case "$1" in
@@ -127,6 +129,7 @@ while [ $# -gt 0 ]; do
     --settings) only="$2"; shift 2 ;;
     --transport) transport="$2"; transport_given=1; shift 2 ;;
     --loss) loss="$2"; shift 2 ;;
+    --link-delay) link_delay="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
     --timeout) timeout="$2"; shift 2 ;;
     --hosts) hosts="$2"; shift 2 ;;
@@ -163,6 +166,11 @@ if [ "$mode" = realtime ]; then
   [ "$transport_given" = 1 ] || transport=dds
   # two processes a run, a core each
   [ -n "$jobs" ] || [ -n "$hosts" ] || jobs=$(( $(nproc) / 2 > 0 ? $(nproc) / 2 : 1 ))
+fi
+if [ -n "$link_delay" ]; then
+  [ "$mode" = realtime ] || die "--link-delay is for --mode realtime (lockstep: --latency-steps)"
+  [[ "$link_delay" =~ ^([0-9]+\.?[0-9]*|\.[0-9]+)$ ]] && awk -v d="$link_delay" 'BEGIN { exit !(d <= 10) }' \
+    || die "--link-delay must be a number of seconds in [0, 10], got '$link_delay'"
 fi
 [ -z "$jobs" ] || [[ "$jobs" =~ ^[1-9][0-9]*$ ]] || die "--jobs must be a positive integer, got '$jobs'"
 [[ "$timeout" =~ ^[1-9][0-9]*$ ]] || die "--timeout must be a positive integer (seconds), got '$timeout'"
@@ -505,7 +513,8 @@ njobs=$(wc -l < "$out/jobs.txt")
 batch_latency="$latency"; [ "$mode" = lockstep ] || batch_latency=measured
 printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" e_spread "$espread" mode "$mode" latency_steps "$batch_latency" \
   marker_noise "${noise:-scenario}" \
-  duration_s "$duration" transport "$transport" loss_percent "${loss:-0}" timeout_s "$timeout" > "$out/batch.txt"
+  duration_s "$duration" transport "$transport" loss_percent "${loss:-0}" link_delay_s "${link_delay:-0}" \
+  timeout_s "$timeout" > "$out/batch.txt"
 
 # the one-run command shared by every job (parallel adds the job's six fields as {1}..{6},
 # a Slurm task reads them from its line of jobs.txt)
@@ -514,6 +523,7 @@ run_cmd=("$root/scripts/experiment_run.sh" run --out "$out" --bin "$bin" --trans
          --partition-prefix "exp$$" --domain "${NSIM_DOMAIN:-0}")
 [ -z "$delay" ] || run_cmd+=(--localization-delay "$delay")
 [ -z "$loss" ] || run_cmd+=(--loss "$loss")
+[ -z "$link_delay" ] || run_cmd+=(--link-delay "$link_delay")
 [ "$dry_run" = 1 ] || [ -x "$bin/direct_sim" ] || { echo "experiments: no $bin/direct_sim: build first (scripts/build.sh) or set NSIM_BUILD_DIR" >&2; exit 1; }
 
 # ---- --slurm: a job array over jobs.txt, nothing run here ----
@@ -573,7 +583,7 @@ if [ -n "$hosts" ]; then
 fi
 
 mode_text="lockstep (latency $latency steps)"; [ "$mode" = lockstep ] || mode_text="realtime (latency measured)"
-echo "experiments: $runs runs x ${#settings[@]} settings, $mode_text, $duration s each, E0 = $e0 Pa +-$(awk -v f="$espread" 'BEGIN { printf "%g", 100 * f }') %, $transport${loss:+ ($loss % loss)}, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
+echo "experiments: $runs runs x ${#settings[@]} settings, $mode_text, $duration s each, E0 = $e0 Pa +-$(awk -v f="$espread" 'BEGIN { printf "%g", 100 * f }') %, $transport${loss:+ ($loss % loss)}${link_delay:+ (link delay $link_delay s each way)}, ${jobs:-one per core} at a time${hosts:+ on $hosts}; results in $out"
 start=$(date +%s.%N)
 pcode=0
 "${par[@]}" "$cmd" :::: "$out/jobs.txt" || pcode=$?

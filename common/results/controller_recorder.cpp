@@ -73,6 +73,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
           {"frames_missing", info.frames_missing},
           {"frames_skipped", info.frames_skipped},
           {"direct_losses", info.direct_losses},
+          {"link_delay_ms", 1e3 * info.link_delay},
           {"frames_out_of_order", info.frames_out_of_order},
           {"rejected_frames", n.rejected_frames},
           {"invalid_outputs", n.invalid_outputs},

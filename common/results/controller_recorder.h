@@ -23,6 +23,7 @@ struct ControllerRunInfo {
   uint64_t frames_received = 0, frames_missing = 0, frames_skipped = 0, frames_out_of_order = 0;
   /// times direct_sim's writers went not alive (it stalled, or this process did)
   uint64_t direct_losses = 0;
+  double link_delay = 0.0;      ///< the emulated delay each way (s; inverse_sim --link-delay)
   TimingStat frame_to_target;   ///< wall time from the frame's sending to the target's (s)
   int domain = 0;
   std::string partition;

@@ -141,6 +141,15 @@ TEST(CliErrors, BadInputExitsWithTwoAndSaysWhy) {
         "--check", "--quiet"},
        2,
        "inverse.lateral_compliance must be in [0, 1]"},
+      // an emulated network delay is a realtime run's; lockstep has its latency in steps
+      {{kBin + "/inverse_sim", "run", "--config", NSIM_SOURCE_DIR "/configs/scenarios/liver_test_coarse.yaml",
+        "--mode", "lockstep", "--link-delay", "0.04", "--check"},
+       2,
+       "--link-delay is for realtime runs over DDS"},
+      {{kBin + "/inverse_sim", "run", "--config", NSIM_SOURCE_DIR "/configs/scenarios/liver_test_coarse.yaml",
+        "--mode", "realtime", "--link-delay", "-1", "--check"},
+       2,
+       "--link-delay must be in [0, 10] (s), got -1"},
       {{kBin + "/direct_sim", "run", "--config",
         testing::WriteEditedScenario(dir, "dup.yaml", "liver_test_coarse.yaml",
                                      {{"duration: 8.0", "duration: 8.0\n  duration: 9.0"}})

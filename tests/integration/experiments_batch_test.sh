@@ -103,6 +103,16 @@ cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/rt/jobs.txt") \
 refused_args --latency-steps --mode realtime --latency-steps 3
 refused_args --transport --mode realtime --transport in_process
 refused --mode fast ''
+# --link-delay (realtime): the jobs' command and batch.txt carry it; refused in lockstep and out
+# of [0, 10] s
+batch "$work/ld" --mode realtime --link-delay 0.04 || fail "--link-delay 0.04: exit $? ($(cat "$work/ld.log"))"
+grep -q 'experiment_run.sh run .*--link-delay 0.04' "$work/ld.log" || fail "--link-delay: the jobs' command lacks it"
+grep -qx 'link_delay_s 0.04' "$work/ld/batch.txt" || fail "--link-delay: batch.txt lacks 'link_delay_s 0.04'"
+grep -qx 'link_delay_s 0' "$work/rt/batch.txt" || fail "--mode realtime: batch.txt lacks 'link_delay_s 0'"
+refused_args --link-delay --link-delay 0.04
+refused_args --link-delay --mode realtime --link-delay 11
+refused_args --link-delay --mode realtime --link-delay abc
+run_refused '--link-delay is for --mode realtime' --link-delay 0.04
 
 # --transport two_hosts: the jobs' command carries it and the loss, batch.txt records the loss;
 # refused: a loss over dds (loopback loses nothing) or out of 0..100, two_hosts with --slurm
