@@ -239,7 +239,9 @@ Reader<Sample>::~Reader() {
 
 template <typename Sample>
 bool Reader<Sample>::Wait(double timeout_s) {
-  return dds_waitset_wait(waitset_, nullptr, 0, ToDuration(timeout_s)) > 0;
+  // not ToDuration: there a duration <= 0 means "none" (infinite); here it means "do not block"
+  return dds_waitset_wait(waitset_, nullptr, 0,
+                          timeout_s > 0 ? static_cast<dds_duration_t>(timeout_s * 1e9) : 0) > 0;
 }
 
 template <typename Sample>

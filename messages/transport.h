@@ -150,7 +150,7 @@ class Reader {
   Reader& operator=(const Reader&) = delete;
 
   /// Blocks until data arrives or the reader's liveliness/deadline status changes, at most
-  /// `timeout_s`. Returns false on timeout.
+  /// `timeout_s` (<= 0: does not block). Returns false on timeout.
   bool Wait(double timeout_s);
   /// Appends every available sample to `out` (in reception order); returns how many. With
   /// `writers`, appends the instance handle of each sample's writer beside it.

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <future>
 #include <limits>
 
 #include "common/core/clock.h"
@@ -79,6 +81,28 @@ TEST(Transport, FramesArriveInOrderAndWallTimeIsStamped) {
     EXPECT_GE(got[k].stamp.wall_time_ns, before);
   }
   EXPECT_TRUE(writer.WaitForAcks(5.0));
+}
+
+// A wait of 0 (or less) polls: it once meant "forever" (the duration's "none"), and a caller
+// whose deadline had just passed blocked until the next sample, or for good after the last
+// one (inverse_sim --link-delay hung at the end of a run). A wait still blocked after 10 s is
+// released by a sample, so that the test ends either way.
+TEST(Transport, AWaitOfZeroOrLessDoesNotBlock) {
+  Participant p(LoopbackConfig());
+  Reader<SensorFrame> reader(p, Qos::kLossless);
+  Writer<SensorFrame> writer(p, Qos::kStateStream);
+  ASSERT_TRUE(writer.WaitForReaders(1, 10.0));
+  // the match and the writer's liveliness trigger the wait until health() reads them
+  int triggers = 0;
+  while (reader.Wait(0.2) && ++triggers < 20) reader.health();
+  ASSERT_LT(triggers, 20) << "the reader's wait stays triggered";
+  for (const double timeout : {0.0, -1.0}) {
+    auto waited = std::async(std::launch::async, [&reader, timeout] { return reader.Wait(timeout); });
+    const bool returned = waited.wait_for(std::chrono::seconds(10)) == std::future_status::ready;
+    if (!returned) writer.Write(SensorFrame{});
+    EXPECT_TRUE(returned) << "Wait(" << timeout << ") blocked with no sample to take";
+    EXPECT_FALSE(waited.get()) << "Wait(" << timeout << ") saw a sample";
+  }
 }
 
 TEST(Transport, LateJoinerGetsTheLastStatus) {
