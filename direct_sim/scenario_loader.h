@@ -83,10 +83,11 @@ struct DirectScenario {
   /// (--seed), independently of the breathing's draws.
   PatientLoopConfig LoopConfig(bool controller) const {
     PatientSceneConfig run_scene = scene;
-    if (run.mode == RunMode::kLockstep) {
-      run_scene.liver.refactor_adoption = FactorAdoption::kScheduled;
+    if (run.mode == RunMode::kLockstep) run_scene.liver.refactor_adoption = FactorAdoption::kScheduled;
+    // a scheduled adoption waits for the worker: not in the idle class (realtime with
+    // refactor_adoption: scheduled too)
+    if (run_scene.liver.refactor_adoption == FactorAdoption::kScheduled)
       run_scene.liver.idle_refresh_worker = false;
-    }
     TrackerNoiseConfig run_tracker = tracker;
     run_tracker.random_seed = random_seed;
     return {run_scene, robot, insertion, safety, controller, watchdog, run_tracker};

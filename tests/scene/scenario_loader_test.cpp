@@ -166,6 +166,9 @@ TEST(ScenarioLoaderTest, RefactorAdoptionIsScheduledInLockstep) {
   // the scheduled adoptions wait for the worker: not in the idle class, which a busy machine
   // starves
   EXPECT_FALSE(ready.LoopConfig(true).scene.liver.idle_refresh_worker);
+  DirectScenario realtime_scheduled = scheduled;
+  realtime_scheduled.run.mode = RunMode::kRealtime;
+  EXPECT_FALSE(realtime_scheduled.LoopConfig(true).scene.liver.idle_refresh_worker);
   EXPECT_NE(LoadError(Edited("refactor_adoption: when_ready", "refactor_adoption: soon"))
                 .find("refactor_adoption"),
             std::string::npos);

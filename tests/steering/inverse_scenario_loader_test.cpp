@@ -79,11 +79,15 @@ TEST(InverseScenarioLoaderTest, ReadsTheModelLiversSolverKeys) {
       << bad;
 }
 
-// run.mode sets the model's refresh worker's class: the lowest in realtime (the control step
-// goes first), the normal class in lockstep (its scheduled adoptions wait for the worker)
-TEST(InverseScenarioLoaderTest, LockstepKeepsTheRefreshWorkerInTheNormalClass) {
+// the model's refresh worker's class: the lowest only in realtime with adoptions when ready
+// (the control step goes first); the normal class in lockstep and with scheduled adoptions
+// (the default), which wait for the worker: a busy machine starves the idle class
+TEST(InverseScenarioLoaderTest, ScheduledAdoptionsKeepTheRefreshWorkerInTheNormalClass) {
   InverseScenario s = Load(DefaultText());  // run.mode: realtime
   EXPECT_FALSE(s.lockstep);
+  EXPECT_EQ(s.loop.model.liver.refactor_adoption, FactorAdoption::kScheduled);
+  EXPECT_FALSE(s.LoopConfig().model.liver.idle_refresh_worker);
+  s.loop.model.liver.refactor_adoption = FactorAdoption::kWhenReady;
   EXPECT_TRUE(s.LoopConfig().model.liver.idle_refresh_worker);
   s = Load(Edited(DefaultText(), "  mode: realtime ", "  mode: lockstep "));
   EXPECT_TRUE(s.lockstep);
