@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "common/core/clock.h"
+#include "common/core/delay_line.h"
 #include "common/core/error.h"
 #include "common/core/interrupt.h"
 #include "common/core/sequence_tracker.h"
@@ -106,10 +107,7 @@ class ControllerPump {
 
   // the frame reader's wait: at most 20 ms, and not past the next delayed frame or target
   double WaitTime(double now) const {
-    double wait = 0.02;
-    if (!arriving_.empty()) wait = std::min(wait, arriving_.front().first - now);
-    if (!leaving_.empty()) wait = std::min(wait, leaving_.front().due - now);
-    return std::max(0.0, wait);
+    return std::min({0.02, arriving_.TimeToNext(now), leaving_.TimeToNext(now)});
   }
 
   // the received frames join the queue, after options_.link_delay when there is one
@@ -122,14 +120,11 @@ class ControllerPump {
         continue;
       }
       if (options_.link_delay > 0)
-        arriving_.emplace_back(now + options_.link_delay, f);
+        arriving_.Push(now + options_.link_delay, f);
       else
         queue_.push_back(f);
     }
-    while (!arriving_.empty() && arriving_.front().first <= now) {
-      queue_.push_back(arriving_.front().second);
-      arriving_.pop_front();
-    }
+    arriving_.Release(now, [this](SensorFrame f) { queue_.push_back(std::move(f)); });
   }
 
   // writes a target answering a frame sent at `frame_wall_time_ns`
@@ -140,10 +135,7 @@ class ControllerPump {
   }
 
   void SendDueTargets(double now) {
-    while (!leaving_.empty() && leaving_.front().due <= now) {
-      Send(leaving_.front().target, leaving_.front().frame_wall_time_ns);
-      leaving_.pop_front();
-    }
+    leaving_.Release(now, [this](const Leaving& l) { Send(l.target, l.frame_wall_time_ns); });
   }
 
   // lockstep: answers every queued frame in order; realtime: the newest, the older ones only
@@ -184,7 +176,7 @@ class ControllerPump {
     if (loop_.counts().answered > answered_before) recorder_.AddAnswer(loop_);
     if (!target) return;
     if (options_.link_delay > 0)
-      leaving_.push_back({MonotonicSeconds() + options_.link_delay, *target, frame.stamp.wall_time_ns});
+      leaving_.Push(MonotonicSeconds() + options_.link_delay, {*target, frame.stamp.wall_time_ns});
     else
       Send(*target, frame.stamp.wall_time_ns);
   }
@@ -257,13 +249,12 @@ class ControllerPump {
   SequenceTracker seqs_;
   std::deque<SensorFrame> queue_;
   // --link-delay: frames not yet taken up and targets not yet written, with their due times
-  std::deque<std::pair<double, SensorFrame>> arriving_;
   struct Leaving {
-    double due;
     RobotTarget target;
-    int64_t frame_wall_time_ns;
+    int64_t frame_wall_time_ns;  // of the frame it answers
   };
-  std::deque<Leaving> leaving_;
+  DelayLine<SensorFrame> arriving_;
+  DelayLine<Leaving> leaving_;
   std::vector<SensorFrame> received_;
   std::vector<SimStatus> statuses_;
   uint64_t late_ = 0;
