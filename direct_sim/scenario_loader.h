@@ -78,16 +78,12 @@ struct DirectScenario {
   /// The patient loop's config (controller = false: insert along the path without targets).
   /// A lockstep run adopts the liver's factor refreshes on schedule (deterministic), whatever
   /// patient.liver.refactor_adoption says: that key chooses for realtime runs. Its refresh
-  /// worker stays in the normal class (FemConfig::idle_refresh_worker), so that the scheduled
-  /// adoptions do not wait for an idle machine. The tracker's noise is seeded by random_seed
-  /// (--seed), independently of the breathing's draws.
+  /// worker then stays in the normal class (FemConfig::RefreshWorkerIdle), so that the
+  /// scheduled adoptions do not wait for an idle machine. The tracker's noise is seeded by
+  /// random_seed (--seed), independently of the breathing's draws.
   PatientLoopConfig LoopConfig(bool controller) const {
     PatientSceneConfig run_scene = scene;
     if (run.mode == RunMode::kLockstep) run_scene.liver.refactor_adoption = FactorAdoption::kScheduled;
-    // a scheduled adoption waits for the worker: not in the idle class (realtime with
-    // refactor_adoption: scheduled too)
-    if (run_scene.liver.refactor_adoption == FactorAdoption::kScheduled)
-      run_scene.liver.idle_refresh_worker = false;
     TrackerNoiseConfig run_tracker = tracker;
     run_tracker.random_seed = random_seed;
     return {run_scene, robot, insertion, safety, controller, watchdog, run_tracker};

@@ -32,15 +32,14 @@ struct InverseScenario {
   int dds_domain = 0;                ///< dds.domain (default 0)
   std::string dds_partition = "nsim";  ///< dds.partition (default nsim)
 
-  /// The controller loop's config for this run: the model's refresh worker stays in the normal
-  /// class (FemConfig::idle_refresh_worker) in lockstep and wherever its adoptions are scheduled
-  /// (inverse.liver.refactor_adoption, the default), since a scheduled adoption waits for it and
-  /// a busy machine starves the idle class (a realtime control step once waited 27 s, until
-  /// direct_sim ended); realtime with when_ready: the idle class. Otherwise `loop` as read.
+  /// The controller loop's config for this run: in lockstep the model's refresh worker stays in
+  /// the normal class (FemConfig::idle_refresh_worker), also with when_ready adoptions: the
+  /// frames wait for the controller, and a busy machine starves the idle class. (Scheduled
+  /// adoptions, the default, keep it there in any mode: FemConfig::RefreshWorkerIdle.)
+  /// Otherwise `loop` as read.
   ControllerLoopConfig LoopConfig() const {
     ControllerLoopConfig config = loop;
-    if (lockstep || config.model.liver.refactor_adoption == FactorAdoption::kScheduled)
-      config.model.liver.idle_refresh_worker = false;
+    if (lockstep) config.model.liver.idle_refresh_worker = false;
     return config;
   }
 };

@@ -119,18 +119,25 @@ struct FemConfig {
   /// background_refactor. 0 (the default): never. Only the patient scene's step takes the hold
   /// (PatientScene::Step); the controller's model (inverse.liver) reads the key but never holds.
   int refactor_hold_steps = 0;
-  /// The background refresh's worker in the lowest scheduling class (SCHED_IDLE, else nice 19):
-  /// on a core a step also wants, the step goes first. Right for a realtime loop, whose steps'
-  /// latency is what counts. Wrong for a lockstep run, whose scheduled adoption waits for the
-  /// worker: on a machine busy with anything else (a compile, a second batch) an idle-class
-  /// worker gets no CPU, and each adoption then waits until the machine is idle (measured: a
-  /// 20 s lockstep run took 678 s of wall clock beside a two-job build, 54 of 59 adoptions
-  /// waiting, against about 60 s alone). false: the worker stays in the normal class of its
-  /// creator's kind (SCHED_OTHER, nice 0; a SCHED_FIFO creator's worker is still moved out
-  /// of the realtime class, to SCHED_OTHER). Results do not depend on it (the adoption
-  /// schedule is refactor_adoption's). Not a YAML key: the run mode sets it
-  /// (DirectScenario::LoopConfig, InverseScenario::LoopConfig: false in lockstep).
+  /// The background refresh's worker in the lowest scheduling class (SCHED_IDLE, else nice 19)
+  /// when adoptions are when_ready: on a core a step also wants, the step goes first. Right for
+  /// a realtime loop, whose steps' latency is what counts. A scheduled adoption waits for the
+  /// worker, so its worker is never idle-class, whatever this says (RefreshWorkerIdle): on a
+  /// machine busy with anything else (a compile, a second batch) an idle-class worker gets no
+  /// CPU, and each adoption then waits until the machine is idle (measured: a 20 s lockstep
+  /// run took 678 s of wall clock beside a two-job build, 54 of 59 adoptions waiting, against
+  /// about 60 s alone; a realtime control step once waited 27 s, until direct_sim ended).
+  /// false, or a scheduled adoption: the worker stays in the normal class of its creator's kind
+  /// (SCHED_OTHER, nice 0; a SCHED_FIFO creator's worker is still moved out of the realtime
+  /// class, to SCHED_OTHER). Results do not depend on it (the adoption schedule is
+  /// refactor_adoption's). Not a YAML key: InverseScenario::LoopConfig sets it false in
+  /// lockstep.
   bool idle_refresh_worker = true;
+  /// Whether the refresh worker runs in the idle class: idle_refresh_worker with when_ready
+  /// adoptions, never with scheduled ones (they wait for it).
+  bool RefreshWorkerIdle() const {
+    return idle_refresh_worker && refactor_adoption == FactorAdoption::kWhenReady;
+  }
   /// Threads of the element passes (the elastic forces and rotations of each step, and the
   /// matrix-free products of the conjugate gradient), 1-8: the tets are split into this many
   /// fixed, contiguous parts, part 0 on the calling thread and the others on helper threads

@@ -198,9 +198,10 @@ struct FemSolver::Impl {
     // makes its adopting step wait (the schedule does not change). Set explicitly, so that a
     // worker started by a SCHED_FIFO thread does not inherit its class
     // (common/core/thread_priority.h has what the fair class still gives it on one core).
-    // A lockstep run keeps it in the normal class (FemConfig::idle_refresh_worker): there the
-    // steps wait for it, and an idle-class worker waits for the whole machine to be idle.
-    if (config.idle_refresh_worker)
+    // A scheduled adoption (and a lockstep run) keeps it in the normal class
+    // (FemConfig::RefreshWorkerIdle): there the steps wait for it, and an idle-class worker
+    // waits for the whole machine to be idle.
+    if (config.RefreshWorkerIdle())
       LowerThisThreadToIdle();
     else
       MoveThisThreadToNormalClass();

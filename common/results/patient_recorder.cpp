@@ -153,9 +153,9 @@ json PatientRecorder::Summary(const PatientLoop& loop, const PatientRunInfo& inf
       // on one CPU (patient.liver.refactor_hold_steps): the steps that kept the refresh waiting
       {"refactor_hold_steps", sc.liver.refactor_hold_steps},
       {"held_steps", liver_held_steps_},
-      // the worker's scheduling class: idle in realtime, normal in lockstep (the adoptions
-      // there wait for it)
-      {"refresh_worker_class", sc.liver.idle_refresh_worker ? "idle" : "normal"}};
+      // the worker's scheduling class: idle with when_ready adoptions (realtime), normal with
+      // scheduled ones (lockstep; they wait for it)
+      {"refresh_worker_class", sc.liver.RefreshWorkerIdle() ? "idle" : "normal"}};
   const double rate = info.wall_time > 0 ? loop.steps() / info.wall_time : 0.0;
   const double mean_ms = Summarize(step_ms_).mean;
   j["rate_hz"] = rate;

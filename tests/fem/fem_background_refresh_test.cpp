@@ -492,13 +492,16 @@ TEST(FemBackgroundRefreshTest, HeldStepsChangeNothingAndHoldOnlyYoungRefreshesOn
   });
 }
 
-// The refresh worker lowers itself to SCHED_IDLE (steps first on a shared core), also when the
-// thread that builds the solver is in the realtime class (direct_sim's run.rt_priority), whose
-// class a new thread would otherwise inherit.
+// With when_ready adoptions the refresh worker lowers itself to SCHED_IDLE (steps first on a
+// shared core), also when the thread that builds the solver is in the realtime class
+// (direct_sim's run.rt_priority), whose class a new thread would otherwise inherit.
 TEST(FemBackgroundRefreshTest, TheWorkerRunsInTheIdleClassWhateverItsCreatorsClass) {
   for (int creator_priority : {0, 5}) {
     InCreatorThread(creator_priority, [creator_priority](const std::function<int(int)>& count) {
-      LiverRun run(LiverConfig());
+      FemConfig config = LiverConfig();
+      config.refactor_adoption = FactorAdoption::kWhenReady;
+      ASSERT_TRUE(config.RefreshWorkerIdle());
+      LiverRun run(config);
       // the worker sets its class as it starts: wait for it (bounded)
       for (int i = 0; i < 500 && count(SCHED_IDLE) < 1; ++i)
         std::this_thread::sleep_for(milliseconds(10));
@@ -509,28 +512,36 @@ TEST(FemBackgroundRefreshTest, TheWorkerRunsInTheIdleClassWhateverItsCreatorsCla
   }
 }
 
-// FemConfig::idle_refresh_worker = false (lockstep runs): the worker stays in the normal class,
+// FemConfig::idle_refresh_worker = false (lockstep runs), and any scheduled adoption whatever
+// that flag says (the adoption waits for the worker): the worker stays in the normal class,
 // also when its creator is in the realtime class (it is moved out of it, never into SCHED_IDLE),
-// and the run is bit-identical to one with an idle-class worker. The worker has passed the
-// line that sets its class once a refresh it computed has been adopted.
+// and the flag changes no bit of the run. The worker has passed the line that sets its class
+// once a refresh it computed has been adopted.
 TEST(FemBackgroundRefreshTest, ANormalClassWorkerIsNeverIdleAndChangesNothing) {
   for (int creator_priority : {0, 5}) {
-    InCreatorThread(creator_priority, [creator_priority](const std::function<int(int)>& count) {
-      FemConfig config = LiverConfig();
-      config.idle_refresh_worker = false;
-      LiverRun normal(config);
-      int step = 0;
-      for (; step < kSteps && normal.swaps < 1; ++step) normal.Step(step);
-      ASSERT_GE(normal.swaps, 1) << "no refresh adopted in " << kSteps << " steps";
-      EXPECT_EQ(count(SCHED_IDLE), 0) << "creator priority " << creator_priority;
-      EXPECT_EQ(count(SCHED_FIFO), 0) << "creator priority " << creator_priority;
-      EXPECT_GE(count(SCHED_OTHER), 1) << "creator priority " << creator_priority;
-      LiverRun idle(LiverConfig());
-      for (int k = 0; k < step; ++k) idle.Step(k);
-      EXPECT_TRUE(Identical(normal, idle)) << "creator priority " << creator_priority;
-      EXPECT_EQ(normal.request_steps, idle.request_steps);
-      EXPECT_EQ(normal.swap_steps, idle.swap_steps);
-    });
+    for (bool idle_flag : {false, true}) {
+      InCreatorThread(creator_priority, [&](const std::function<int(int)>& count) {
+        FemConfig config = LiverConfig();  // scheduled adoptions
+        config.idle_refresh_worker = idle_flag;
+        ASSERT_FALSE(config.RefreshWorkerIdle());
+        LiverRun normal(config);
+        int step = 0;
+        for (; step < kSteps && normal.swaps < 1; ++step) normal.Step(step);
+        ASSERT_GE(normal.swaps, 1) << "no refresh adopted in " << kSteps << " steps";
+        const std::string where = "creator priority " + std::to_string(creator_priority) +
+                                  ", idle_refresh_worker " + std::to_string(idle_flag);
+        EXPECT_EQ(count(SCHED_IDLE), 0) << where;
+        EXPECT_EQ(count(SCHED_FIFO), 0) << where;
+        EXPECT_GE(count(SCHED_OTHER), 1) << where;
+        FemConfig other = config;
+        other.idle_refresh_worker = !idle_flag;
+        LiverRun flipped(other);
+        for (int k = 0; k < step; ++k) flipped.Step(k);
+        EXPECT_TRUE(Identical(normal, flipped)) << where;
+        EXPECT_EQ(normal.request_steps, flipped.request_steps);
+        EXPECT_EQ(normal.swap_steps, flipped.swap_steps);
+      });
+    }
   }
 }
 

@@ -160,15 +160,15 @@ TEST(ScenarioLoaderTest, RefactorAdoptionIsScheduledInLockstep) {
   EXPECT_EQ(scheduled.scene.liver.refactor_adoption, FactorAdoption::kScheduled);
   ready.run.mode = RunMode::kRealtime;
   EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kWhenReady);
-  EXPECT_TRUE(ready.LoopConfig(true).scene.liver.idle_refresh_worker);
+  EXPECT_TRUE(ready.LoopConfig(true).scene.liver.RefreshWorkerIdle());
   ready.run.mode = RunMode::kLockstep;
   EXPECT_EQ(ready.LoopConfig(true).scene.liver.refactor_adoption, FactorAdoption::kScheduled);
   // the scheduled adoptions wait for the worker: not in the idle class, which a busy machine
   // starves
-  EXPECT_FALSE(ready.LoopConfig(true).scene.liver.idle_refresh_worker);
+  EXPECT_FALSE(ready.LoopConfig(true).scene.liver.RefreshWorkerIdle());
   DirectScenario realtime_scheduled = scheduled;
   realtime_scheduled.run.mode = RunMode::kRealtime;
-  EXPECT_FALSE(realtime_scheduled.LoopConfig(true).scene.liver.idle_refresh_worker);
+  EXPECT_FALSE(realtime_scheduled.LoopConfig(true).scene.liver.RefreshWorkerIdle());
   EXPECT_NE(LoadError(Edited("refactor_adoption: when_ready", "refactor_adoption: soon"))
                 .find("refactor_adoption"),
             std::string::npos);

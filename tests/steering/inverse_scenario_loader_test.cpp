@@ -86,12 +86,14 @@ TEST(InverseScenarioLoaderTest, ScheduledAdoptionsKeepTheRefreshWorkerInTheNorma
   InverseScenario s = Load(DefaultText());  // run.mode: realtime
   EXPECT_FALSE(s.lockstep);
   EXPECT_EQ(s.loop.model.liver.refactor_adoption, FactorAdoption::kScheduled);
-  EXPECT_FALSE(s.LoopConfig().model.liver.idle_refresh_worker);
+  EXPECT_FALSE(s.LoopConfig().model.liver.RefreshWorkerIdle());
   s.loop.model.liver.refactor_adoption = FactorAdoption::kWhenReady;
-  EXPECT_TRUE(s.LoopConfig().model.liver.idle_refresh_worker);
+  EXPECT_TRUE(s.LoopConfig().model.liver.RefreshWorkerIdle());
   s = Load(Edited(DefaultText(), "  mode: realtime ", "  mode: lockstep "));
   EXPECT_TRUE(s.lockstep);
-  EXPECT_FALSE(s.LoopConfig().model.liver.idle_refresh_worker);
+  EXPECT_FALSE(s.LoopConfig().model.liver.RefreshWorkerIdle());
+  s.loop.model.liver.refactor_adoption = FactorAdoption::kWhenReady;  // lockstep: normal too
+  EXPECT_FALSE(s.LoopConfig().model.liver.RefreshWorkerIdle());
   EXPECT_TRUE(s.loop.model.liver.idle_refresh_worker);  // the loaded config is as read
 }
 
