@@ -133,7 +133,7 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
                  InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "tip_ramp", "lateral_compliance", "tip_compliance", "jacobian_friction", "constraint_compliance", "friction_coefficient", "anchors",
+                 "tip_constraint", "tip_hold", "lateral_compliance", "tip_compliance", "jacobian_friction", "constraint_compliance", "friction_coefficient", "anchors",
                  "bevel", "needle"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
@@ -145,7 +145,8 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
   inv.Read("puncture_force", &s->loop.model.puncture_force);
   inv.Read("point_spacing", &s->loop.model.point_spacing);
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
-  inv.Read("tip_ramp", &s->loop.model.tip_ramp);
+  const int tip_hold = inv.ReadChoice("tip_hold", TipHoldNames());
+  if (tip_hold >= 0) s->loop.model.tip_hold = static_cast<TipHold>(tip_hold);
   inv.Read("lateral_compliance", &s->loop.model.lateral_compliance);
   inv.Read("tip_compliance", &s->loop.model.tip_compliance);
   const int jacobian_friction = inv.ReadChoice("jacobian_friction", {"held", "solved"});

@@ -17,10 +17,11 @@ namespace {
 // a point further ahead of the tip than this fraction of point_spacing is removed
 constexpr double kRetractionSlack = 0.1;
 // the tip constraint is skipped within this fraction of point_spacing after a seed (or, with
-// tip_ramp, softened there: its hold grows in proportion to the tip's distance from the seed)
+// tip_hold ramp, softened there: its hold grows in proportion to the tip's distance from the
+// seed; with handover the seeded point's is)
 constexpr double kTipSkipFraction = 0.25;
-// with tip_ramp, the tip constraint is left out below this fraction of kTipSkipFraction (where
-// its hold would be at most this fraction of a rigid one)
+// with tip_hold ramp (handover), the tip constraint (the seeded point's) is left out below this
+// fraction of kTipSkipFraction (where its hold would be at most this fraction of a rigid one)
 constexpr double kTipRampStart = 0.02;
 // barycentric slack of the point-location walk (-)
 constexpr double kWalkTolerance = 1e-9;
@@ -90,6 +91,11 @@ const char* ToString(TissuePhase phase) {
   return "?";
 }
 
+const std::vector<std::string>& TipHoldNames() {
+  static const std::vector<std::string> names = {"quarter", "ramp", "handover"};
+  return names;
+}
+
 void TissueCouplingConfig::Validate(const std::string& prefix) const {
   auto check = [&](bool ok, const char* key, const char* rule, double value) {
     if (!ok) throw InputError(Str(prefix, ".", key, " must be ", rule, ", got ", value));
@@ -106,6 +112,8 @@ void TissueCouplingConfig::Validate(const std::string& prefix) const {
         contact_margin);
   check(lateral_compliance >= 0.0 && std::isfinite(lateral_compliance), "lateral_compliance",
         ">= 0 (m/N)", lateral_compliance);
+  if (tip_hold == TipHold::kHandover && !tip_constraint)
+    throw InputError(Str(prefix, ".tip_hold: handover needs ", prefix, ".tip_constraint: true"));
   check(tip_compliance >= 0.0 && std::isfinite(tip_compliance), "tip_compliance", ">= 0 (m/N)",
         tip_compliance);
   // Puncture forces of skin and organs are 0.1..10 N, friction coefficients below 1 and
@@ -349,7 +357,17 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     if (ts.phase != TissuePhase::kInside && ts.phase != TissuePhase::kExited) continue;
 
     const bool friction = cfg.friction_coefficient > 0.0 || cfg.friction_force_per_length > 0.0;
-    for (int i = 0; i < static_cast<int>(ts.points.size()); ++i) {
+    // the tip's distance past the last seeded point sets how much of a hold the tip gets (or,
+    // with tip_hold handover, that point): from nothing at the seed to rigid a quarter spacing past
+    const double past_seed = ts.report.depth - ts.last_seed_depth;
+    const double full_hold = kTipSkipFraction * cfg.point_spacing;
+    const double first_hold = kTipRampStart * full_hold;
+    const bool tip_held = ts.phase == TissuePhase::kInside && cfg.tip_constraint && ts.tip.tet >= 0;
+    const bool handover = tip_held && cfg.tip_hold == TipHold::kHandover && past_seed < full_hold;
+    const int num_points = static_cast<int>(ts.points.size());
+    for (int i = 0; i < num_points; ++i) {
+      const bool handed_over = handover && i == num_points - 1;
+      if (handed_over && past_seed < first_hold) continue;  // the tip holds its tissue
       const NeedlePathPoint& p = ts.points[i];
       const Eigen::Vector3d xp = EvalTetPoint(mesh.tets, xs, p.point);
       const double u = ProjectOnPolyline(needle.start, xp);
@@ -358,6 +376,7 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
       const int pn = add_needle_point(u);
       CouplingRowTag tag = add_lateral_rows(pt, pn, z, CouplingRowTag::Kind::kLateral, t);
       if (cfg.lateral_compliance > 0.0) set.SetCompliance(tag.row, 2, cfg.lateral_compliance);
+      if (handed_over) set.SetSoftness(tag.row, 2, full_hold / past_seed - 1.0);
       tag.point = i;
       state.tags.push_back(tag);
       if (!friction) continue;
@@ -373,11 +392,9 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     }
 
     // tip: the tissue ahead is cut; laterally the tip follows the tissue it is in
-    const double past_seed = ts.report.depth - ts.last_seed_depth;  // tip past the last point
-    const double full_hold = kTipSkipFraction * cfg.point_spacing;
-    const double first_hold = cfg.tip_ramp ? kTipRampStart * full_hold : full_hold;
-    if (ts.phase == TissuePhase::kInside && cfg.tip_constraint && ts.tip.tet >= 0 &&
-        past_seed >= first_hold) {
+    const bool ramp = cfg.tip_hold == TipHold::kRamp;
+    if (tip_held &&
+        (cfg.tip_hold == TipHold::kHandover || past_seed >= (ramp ? first_hold : full_hold))) {
       // keyed: the tip moves through the tissue, its columns come from cached node columns
       const int pt = set.AddBodyPoint(b, mesh.tets[ts.tip.tet], ts.tip.bary, kTipPointKey);
       const int pn = add_needle_point(u_tip);
@@ -385,7 +402,8 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
       if (cfg.tip_compliance > 0.0) set.SetCompliance(set.num_rows() - 2, 2, cfg.tip_compliance);
       // ramp: softness full / past - 1 holds the fraction past / full of a rigid hold, from
       // nothing at the seed to rigid a quarter spacing past it, continuous in the depth
-      if (past_seed < full_hold) set.SetSoftness(set.num_rows() - 2, 2, full_hold / past_seed - 1.0);
+      if (ramp && past_seed < full_hold)
+        set.SetSoftness(set.num_rows() - 2, 2, full_hold / past_seed - 1.0);
     }
   }
 }

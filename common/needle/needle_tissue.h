@@ -30,13 +30,18 @@
 //    the tissue: two rows orthogonal to the tip direction tie the needle tip to the tissue
 //    material point that held the tip at the step start. The tip can thus only advance along
 //    its own direction: a bevel that turns the tip steers the path. Within a quarter spacing
-//    of the last seeded point the rows would be nearly redundant with that point's: without
-//    tip_ramp they are skipped there, so the hold appears and disappears at once when the tip
-//    crosses a quarter spacing (a loaded hold released in one step: on the default scenario
-//    the registered target jumped by 1.7 mm); with tip_ramp they are soft there
+//    of the last seeded point the rows would be nearly redundant with that point's (tip_hold):
+//    with `quarter` they are skipped there, so the hold appears and disappears at once when the
+//    tip crosses a quarter spacing (a loaded hold released in one step: on the default scenario
+//    the registered target jumped by 1.7 mm); with `ramp` they are soft there
 //    (ConstraintRow::softness = quarter spacing / distance - 1): the hold grows in proportion
 //    to the tip's distance from the last point, from nothing at it to rigid at a quarter
 //    spacing, and the rows are skipped only within 2 % of that (a hold of at most 2 %).
+//    With `handover` the roles swap: the tip is held rigidly at every depth, and the last
+//    seeded point is the one that is skipped within 2 % and softened within the quarter
+//    spacing (its hold grows from nothing to rigid as the tip leaves it), so the tissue at the
+//    tip, where a target is approached, is never let go when the tip's depth crosses a
+//    threshold (the tissue sliding back along the needle).
 //    lateral_compliance and tip_compliance (m/N, 0 by default) put a spring in series with
 //    the lateral rows of the trajectory points and of the tip (ConstraintRow::compliance): the
 //    held material point then lags the needle by that compliance times its lateral force (the
@@ -76,6 +81,13 @@ class BeamNeedleBody;
 class RigidNeedleModel;
 struct RigidNeedleState;
 
+/// Where the tip is held laterally after a seeded point (see the file comment): from a quarter
+/// spacing past it on (kQuarter, the default), ramped in over that quarter spacing (kRamp), or
+/// at every depth, the seeded point's hold ramped in instead (kHandover).
+enum class TipHold { kQuarter, kRamp, kHandover };
+/// The YAML names of TipHold, in its order: quarter, ramp, handover.
+const std::vector<std::string>& TipHoldNames();
+
 /// Needle-tissue interaction parameters of one tissue body.
 struct TissueCouplingConfig {
   std::string name = "tissue";  ///< for reports and messages
@@ -90,9 +102,8 @@ struct TissueCouplingConfig {
   double point_spacing = 0.013;
   /// Constrain the tip laterally to the tissue it is in (see the file comment).
   bool tip_constraint = true;
-  /// The tip's hold ramps in over the quarter spacing after a seeded point (true), or starts
-  /// at once a quarter spacing after it (false; see the file comment).
-  bool tip_ramp = false;
+  /// How the tip's hold meets the last seeded point's (see the file comment; YAML tip_hold).
+  TipHold tip_hold = TipHold::kQuarter;
   /// Compliance of the tissue around the needle that the mesh does not resolve (m/N), >= 0:
   /// added in series to each lateral row of the trajectory points (ConstraintRow::compliance).
   /// 0: the material point is held rigidly (the default).

@@ -16,6 +16,7 @@
 #include "common/mesh/oriented_box.h"
 #include "common/needle/beam_needle.h"
 #include "common/needle/bevel_tip.h"
+#include "common/needle/needle_tissue.h"
 #include "common/needle/rigid_needle.h"
 #include "common/robot/iiwa14.h"
 #include "common/robot/pose_math.h"
@@ -68,8 +69,8 @@ struct InverseModelConfig {
   double point_spacing = 0.013;
   /// Lateral tip constraint in the liver (common/needle, needle_tissue.h).
   bool tip_constraint = true;
-  /// The tip hold ramps in after each trajectory point (TissueCouplingConfig::tip_ramp).
-  bool tip_ramp = false;
+  /// Where the tip is held after each trajectory point (TissueCouplingConfig::tip_hold).
+  TipHold tip_hold = TipHold::kQuarter;
   /// Series compliance of the lateral needle rows in the model liver (m/N), >= 0
   /// (TissueCouplingConfig::lateral_compliance; YAML inverse.lateral_compliance).
   double lateral_compliance = 0.0;

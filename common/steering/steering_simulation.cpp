@@ -94,7 +94,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   liver.friction_force_per_length = 0.0;
   liver.point_spacing = config.point_spacing;
   liver.tip_constraint = config.tip_constraint;
-  liver.tip_ramp = config.tip_ramp;
+  liver.tip_hold = config.tip_hold;
   liver.lateral_compliance = config.lateral_compliance;
   liver.tip_compliance = config.tip_compliance;
   coupling.tissues = {liver};

@@ -218,7 +218,7 @@ TEST(NeedleTissueTest, RetractionRemovesThePointsBehindTheTip) {
   EXPECT_EQ(scene.stepper->set().num_rows(), 0);
 }
 
-// the tip's lateral hold after a seeded point: without tip_ramp it is off for a quarter
+// the tip's lateral hold after a seeded point: with tip_hold quarter it is off for a quarter
 // spacing and then rigid at once; with it, it holds from 2 % of that on, softened in proportion
 // (ConstraintRow::softness), so its force grows with the tip's distance from the point instead of
 // jumping from zero
@@ -230,7 +230,7 @@ TEST(NeedleTissueTest, TipHoldRampsInAfterASeededPoint) {
   std::vector<Sample> samples[2];
   for (bool ramp : {false, true}) {
     TissueCouplingConfig tissue = MakeTissue();
-    tissue.tip_ramp = ramp;
+    tissue.tip_hold = ramp ? TipHold::kRamp : TipHold::kQuarter;
     Scene scene(tissue);
     for (int k = 0; k < 40; ++k) {
       // a slow sideways drift loads the tip's hold
@@ -264,6 +264,45 @@ TEST(NeedleTissueTest, TipHoldRampsInAfterASeededPoint) {
   std::printf("tip hold with the ramp: up to %.3g N within 30 %% of a quarter spacing, %.3g N "
               "beyond 70 %%\n", near_point, near_quarter);
   EXPECT_LT(near_point, near_quarter);
+}
+
+// tip_hold handover: the tip is held at every depth past the entry (its force never drops to zero
+// under a sideways drift, where without it the hold is off for a quarter spacing after each
+// point), and the last seeded point is the one let go at its seed and ramped in: right after
+// it is seeded it drifts off the needle line, a quarter spacing later it is back on it
+TEST(NeedleTissueTest, TipHandoverHoldsTheTipAndRampsInTheLastPoint) {
+  const double quarter = 0.25 * MakeTissue().point_spacing;
+  TissueCouplingConfig tissue = MakeTissue();
+  tissue.tip_hold = TipHold::kHandover;
+  Scene scene(tissue);
+  int held = 0, soft = 0, rigid = 0;
+  double while_soft = 0.0, once_rigid = 0.0;  // the last point's distance to the needle line
+  for (int k = 0; k < 40; ++k) {
+    // the hold of a step is set by the tip's depth past the last point at the step start
+    const TissueCouplingState& ts = scene.tissue();
+    const bool inside = scene.report().phase == TissuePhase::kInside && ts.tip.tet >= 0;
+    const double past = scene.report().depth - ts.last_seed_depth;
+    const size_t points = ts.points.size();
+    const NeedleStepReport r = scene.Step(0.3e-3, Eigen::Vector3d(2e-5, 0.0, 0.0));
+    ASSERT_TRUE(r.solve.converged);
+    if (!inside) continue;
+    EXPECT_GT(scene.report().tip_force, 0.0) << "the tip is held at depth " << scene.report().depth;
+    ++held;
+    if (points < 2 || ts.points.size() != points) continue;  // a trajectory point, not re-seeded
+    const double off_line = scene.DistanceToNeedle(ts.points.back());
+    if (past > 0.3 * quarter && past < quarter) while_soft = std::max(while_soft, off_line), ++soft;
+    if (past >= quarter) once_rigid = std::max(once_rigid, off_line), ++rigid;
+  }
+  std::printf("last point off the needle line: up to %.3g m while its hold ramps in, %.3g m "
+              "once rigid\n", while_soft, once_rigid);
+  EXPECT_GE(held, 20);
+  EXPECT_GE(soft, 3);
+  EXPECT_GE(rigid, 3);
+  EXPECT_GT(while_soft, 1e3 * kLineTol);  // soft: the drift carries it off the line
+  EXPECT_LT(once_rigid, kLineTol);        // rigid a quarter spacing past its seed
+  // the handover needs the tip hold
+  tissue.tip_constraint = false;
+  EXPECT_THROW(tissue.Validate(), InputError);
 }
 
 // lateral_compliance c: each trajectory point is held by a spring of compliance c in series with

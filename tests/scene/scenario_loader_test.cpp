@@ -108,6 +108,24 @@ TEST(ScenarioLoaderTest, ConstraintComplianceChoices) {
           .scene.liver_rest_compliance);
 }
 
+// needle.<tissue>.tip_hold selects where the tip is held after a seeded point: quarter (the
+// default), ramp or handover; anything else is named
+TEST(ScenarioLoaderTest, TipHoldChoices) {
+  const auto liver_hold = [](const std::string& text) {
+    return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
+                               SourcePath("configs/scenarios"))
+        .scene.needle.coupling.tissues[kLiverTissue]
+        .tip_hold;
+  };
+  const std::string liver = "liver: {puncture_force: 0.3, friction_coefficient: 0.1, ";
+  EXPECT_EQ(liver_hold(DefaultText()), TipHold::kQuarter);
+  EXPECT_EQ(liver_hold(Edited(liver, liver + "tip_hold: handover, ")), TipHold::kHandover);
+  EXPECT_EQ(liver_hold(Edited(liver, liver + "tip_hold: ramp, ")), TipHold::kRamp);
+  EXPECT_EQ(LoadError(Edited(liver, liver + "tip_hold: always, ")),
+            "scenario.yaml: needle.liver.tip_hold: expected one of quarter, ramp, handover, got "
+            "'always'");
+}
+
 // patient.prefetch_ahead and patient.prefetch_rib_margin: read, and bounded like the other
 // lengths
 TEST(ScenarioLoaderTest, TrackerNoise) {

@@ -100,18 +100,18 @@ TEST(InverseScenarioLoaderTest, ScheduledAdoptionsKeepTheRefreshWorkerInTheNorma
 // the model's needle coupling and prediction options: defaults, values, and bad choices by key
 TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   const InverseScenario plain = Load(DefaultText());
-  EXPECT_FALSE(plain.loop.model.tip_ramp);
+  EXPECT_EQ(plain.loop.model.tip_hold, TipHold::kQuarter);
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
   EXPECT_EQ(plain.loop.model_pose, ModelPose::kAuto);       // the default scenario's
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
-                            "  tip_ramp: true\n  jacobian_friction: solved\n" + kInverseKey);
+                            "  tip_hold: handover\n  jacobian_friction: solved\n" + kInverseKey);
   text = Edited(text, "  model_pose: auto ", "  model_pose: measured ");
   text = Edited(text, "  preparation: exhale ", "  preparation: buffer ");
   text = Edited(text, "  shrink: true ", "  shrink: false ");
   const InverseScenario s = Load(text);
-  EXPECT_TRUE(s.loop.model.tip_ramp);
+  EXPECT_EQ(s.loop.model.tip_hold, TipHold::kHandover);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_EQ(s.loop.model_pose, ModelPose::kMeasured);
   EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);
