@@ -159,7 +159,11 @@ TEST(Takeover, ASecondControllerIsRefusedWhileTheFirstIsAlive) {
   EXPECT_EQ(d["controller_losses"], 0);
   ASSERT_EQ(d["controller_owners"].size(), 1u);
   EXPECT_EQ(d["controller_owners"][0]["targets_applied"], 199);
-  EXPECT_GT(d["targets"]["foreign"].get<uint64_t>(), 100u) << d["targets"].dump();
+  // how many of its targets arrive while direct_sim runs depends on when its writer is matched
+  // (80-174 of its 201 in ten runs): every one that arrives is foreign, none more than it sent
+  const uint64_t sent = loop.InverseSummary("inverse2")["targets_sent"].get<uint64_t>();
+  EXPECT_GT(d["targets"]["foreign"].get<uint64_t>(), 0u) << d["targets"].dump();
+  EXPECT_LE(d["targets"]["foreign"].get<uint64_t>(), sent) << d["targets"].dump();
   EXPECT_EQ(d["targets"]["foreign_by_writer"].size(), 1u);
   EXPECT_NE(output.find("refused"), std::string::npos) << output;
   EXPECT_TRUE(loop.Timeseries() == ReadText(dir / "alone/direct/timeseries.csv"))
