@@ -7,6 +7,7 @@
 #
 #   scripts/experiments.sh [--runs N] [--seed S] [--scenario S.yaml] [--duration S]
 #                          [--latency-steps N[,N...] | --mode realtime] [--gain K] [--e-spread F]
+#                          [--target-offset D[,D...]]
 #                          [--marker-noise S]
 #                          [--bevel] [--dof7]
 #                          [--model-bevel] [--flexible]
@@ -32,6 +33,13 @@
 # table, with the paired prediction on - off lines of every latency; also printed) and
 # DIR/sweep.png (final error and amplitude against latency, one line per setting: prediction on
 # and off, 6-DoF and, with --dof7, 7-DoF). `--collect DIR` on a sweep folder rebuilds them.
+# --target-offset D moves the scenario's target (shared.target) D mm along the planned path (the
+# line from shared.entry through the target; D > 0 deeper), in every setting: how the results
+# depend on where the target falls between the needle's trajectory points (spaced
+# needle.liver.point_spacing, 13 mm in the default scenario; README, "Where the target falls").
+# A list (--target-offset -6,-3,0,3) is a target sweep: one batch per offset in
+# DIR/target_<D>mm/, then DIR/sweep.csv, sweep.txt and sweep.png as for a latency sweep, with the
+# offset in place of the latency (one list at a time: a latency list or an offset list).
 # --mode realtime: every run in realtime mode (both loops on the wall clock, over DDS: --transport
 # dds, or two_hosts when given) instead of lockstep: the latency is whatever the machine makes it
 # (the controller measures it; no --latency-steps) and runs are not reproducible to the bit.
@@ -102,14 +110,14 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 runs=22; seed=1; scenario="$root/configs/scenarios/liver_breathing.yaml"; duration=26
 latency=1; gain=""; noise=""; noise_given=0; espread=0.13; bevel=0; dof7=0; only=""; build=1; replay=""; horizon="0.1,0.2,0.4"
-model_bevel=0; flexible=0
+model_bevel=0; flexible=0; target_offset=""; target_given=0
 transport=in_process; transport_given=0; loss=""; link_delay=""; mode=lockstep; latency_given=0; jobs=""; timeout=600; hosts=""; slurm=0; dry_run=0; collect=""
 usage() { awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; }
 die() { echo "experiments: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   # the options that take a value must have one
   case "$1" in
-    --runs|--seed|--scenario|--duration|--latency-steps|--mode|--gain|--e-spread|--marker-noise|--settings|--transport|--loss|--link-delay|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
+    --runs|--seed|--scenario|--duration|--latency-steps|--target-offset|--mode|--gain|--e-spread|--marker-noise|--settings|--transport|--loss|--link-delay|--jobs|--timeout|--hosts|--collect|--replay|--horizon)
       [ $# -ge 2 ] || die "option '$1' needs a value (see --help)" ;;
   esac
   case "$1" in
@@ -118,6 +126,7 @@ while [ $# -gt 0 ]; do
     --scenario) scenario="$(realpath -m "$2")"; shift 2 ;;
     --duration) duration="$2"; shift 2 ;;
     --latency-steps) latency="$2"; latency_given=1; shift 2 ;;
+    --target-offset) target_offset="$2"; target_given=1; shift 2 ;;
     --mode) mode="$2"; shift 2 ;;
     --gain) gain="$2"; shift 2 ;;
     --e-spread) espread="$2"; shift 2 ;;
@@ -151,6 +160,12 @@ if ! [[ "$duration" =~ ^([0-9]+\.?[0-9]*|\.[0-9]+)$ ]] || ! awk -v d="$duration"
   die "--duration must be a number of seconds > 0, got '$duration'"
 fi
 [ -f "$scenario" ] || die "--scenario: no such file: $scenario"
+offset_re='[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)'
+[ "$target_given" = 0 ] || { [[ "$target_offset" =~ ^$offset_re(,$offset_re)*$ ]] &&
+  awk -v l="$target_offset" 'BEGIN { n = split(l, d, ","); for (i = 1; i <= n; i++) if (d[i] < -100 || d[i] > 100) exit 1 }'; } \
+  || die "--target-offset must be a number of mm in [-100, 100] or a comma-separated list of them, got '$target_offset'"
+[[ "$latency" != *,* || "$target_offset" != *,* ]] \
+  || die "one sweep at a time: --latency-steps '$latency' and --target-offset '$target_offset' are both lists"
 [ -z "$gain" ] || [[ "$gain" =~ ^(0?\.[0-9]*[1-9][0-9]*|1(\.0*)?)$ ]] \
   || die "--gain must be a number in (0, 1], got '$gain'"
 [ "$noise_given" = 0 ] || { [[ "$noise" =~ ^([0-9]+\.?[0-9]*|\.[0-9]+)([eE]-?[0-9]+)?$ ]] &&
@@ -301,16 +316,21 @@ collect_batch() {  # collect_batch DIR
   [ "$plot_ok" = 1 ]
 }
 
-# ---- a latency sweep: its table and plot, from the batches DIR/latency_<N>/ ----
+# ---- a sweep: its table and plot, from the batches DIR/latency_<N>/ or DIR/target_<D>mm/ ----
 collect_sweep() {  # collect_sweep DIR
-  local dir="$1" d lat
-  echo "latency_steps,setting,runs,final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,amplitude_std_mm,failed" > "$dir/sweep.csv"
+  local dir="$1" d v prefix suffix column label unit
+  if compgen -G "$dir/latency_*" > /dev/null; then
+    prefix=latency_; suffix=""; column=latency_steps; label=latency; unit=steps
+  else
+    prefix=target_; suffix=mm; column=target_offset_mm; label="target offset"; unit=mm
+  fi
+  echo "$column,setting,runs,final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,amplitude_std_mm,failed" > "$dir/sweep.csv"
   : > "$dir/sweep_pairs.txt"
-  # in the order of the latencies (the folder's own path may hold underscores and digits)
-  for lat in $(ls -d "$dir"/latency_* | sed 's|.*/latency_||' | sort -n); do
-    d="$dir/latency_$lat"
+  # in numeric order of the values (the folder's own path may hold underscores and digits)
+  for v in $(ls -d "$dir/$prefix"*"$suffix" | sed "s|.*/$prefix||; s|$suffix\$||" | sort -g); do
+    d="$dir/$prefix$v$suffix"
     [ -f "$d/runs.csv" ] || { echo "experiments: $d has no runs.csv (collect it first)" >&2; return 1; }
-    awk -F, -v L="$lat" 'NR > 1 { n[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 }
+    awk -F, -v L="$v" 'NR > 1 { n[$1]++; if (!($1 in seen)) { seen[$1] = 1; order[++o] = $1 }
         if ($5 != "completed") bad[$1]++
         if ($6 == "") next
         k[$1]++; e[$1] += $6; e2[$1] += $6 * $6; a[$1] += $7; a2[$1] += $7 * $7
@@ -320,15 +340,16 @@ collect_sweep() {  # collect_sweep DIR
               printf "%s,%s,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n", L, s, n[s], c ? e[s] / c : 0, sd(e[s], e2[s], c),
                      c ? w[s] : 0, c ? a[s] / c : 0, sd(a[s], a2[s], c), bad[s] + 0 } }' "$d/runs.csv" >> "$dir/sweep.csv"
     if grep -q "^prediction on - off" "$d/table.txt" 2>/dev/null; then
-      { echo "latency $lat steps:"; sed -n '/^prediction on - off/,$p' "$d/table.txt" | tail -n +2; } >> "$dir/sweep_pairs.txt"
+      { echo "$label $v $unit:"; sed -n '/^prediction on - off/,$p' "$d/table.txt" | tail -n +2; } >> "$dir/sweep_pairs.txt"
     fi
   done
   {
     awk -F, 'NR == 1 { next } { printf "%7s  %-16s %4d  %7.3f +- %5.3f  %7.3f  %7.3f +- %5.3f  %6d\n", $1, $2, $3, $4, $5, $6, $7, $8, $9 }' \
-      "$dir/sweep.csv" | sed '1i latency  setting          runs  final error (mm)  worst (mm)  amplitude (mm)  failed'
+      "$dir/sweep.csv" | sed "1i $(printf '%-7s' "$( [ "$unit" = mm ] && echo 'offset' || echo 'latency')")  setting          runs  final error (mm)  worst (mm)  amplitude (mm)  failed"
     echo
     echo "final error = mean true tip-to-target distance over the last 20 % of each run, amplitude = its"
-    echo "peak-to-peak; mean +- std over runs; worst = the largest final error; latency in lockstep steps"
+    echo "peak-to-peak; mean +- std over runs; worst = the largest final error; $( [ "$unit" = mm ] &&
+      echo 'offset = the target moved along the planned path (mm, + deeper)' || echo 'latency in lockstep steps')"
     echo
     echo "prediction on - off, paired by run (|t| > 2.08: significant at 5 % for 22 runs):"
     cat "$dir/sweep_pairs.txt"
@@ -346,8 +367,12 @@ collect_sweep() {  # collect_sweep DIR
 
 if [ -n "$collect" ]; then
   [ -d "$collect" ] || die "--collect: no such folder: $collect"
-  if compgen -G "$collect/latency_*" > /dev/null && [ ! -f "$collect/jobs.txt" ]; then
-    for d in "$collect"/latency_*; do collect_batch "$d" > /dev/null || true; done
+  if compgen -G "$collect/latency_*" > /dev/null || compgen -G "$collect/target_*mm" > /dev/null \
+      && [ ! -f "$collect/jobs.txt" ]; then
+    for d in "$collect"/latency_* "$collect"/target_*mm; do
+      [ -d "$d" ] || continue
+      collect_batch "$d" > /dev/null || true
+    done
     collect_sweep "$collect"
   else
     collect_batch "$collect"
@@ -364,12 +389,13 @@ bin="$(realpath -m "$bin")"
 out="${NSIM_RESULTS_DIR:-$root/results/experiments_$(date +%Y%m%d_%H%M%S)}"
 mkdir -p "$out"; out="$(realpath "$out")"
 
-# ---- a latency sweep: this script once per latency, then the sweep's table and plot ----
-if [[ "$latency" == *,* ]]; then
-  [ -z "$replay" ] || die "--replay takes no latency list"
-  [ "$slurm" = 0 ] && [ "$dry_run" = 0 ] || die "a latency sweep runs its batches here: no --slurm or --dry-run (run one batch per latency instead)"
-  sub=(--runs "$runs" --seed "$seed" --scenario "$scenario" --duration "$duration" --transport "$transport"
-       --timeout "$timeout" --no-build)
+# ---- a sweep (latencies or target offsets): this script once per value, then the sweep's table
+# and plot ----
+if [[ "$latency" == *,* || "$target_offset" == *,* ]]; then
+  [ -z "$replay" ] || die "--replay takes no latency or target-offset list"
+  [ "$slurm" = 0 ] && [ "$dry_run" = 0 ] || die "a sweep runs its batches here: no --slurm or --dry-run (run one batch per value instead)"
+  sub=(--runs "$runs" --seed "$seed" --scenario "$scenario" --duration "$duration" --e-spread "$espread"
+       --transport "$transport" --timeout "$timeout" --no-build)
   [ -z "$loss" ] || sub+=(--loss "$loss")
   [ -z "$gain" ] || sub+=(--gain "$gain")
   [ -z "$noise" ] || sub+=(--marker-noise "$noise")
@@ -380,11 +406,24 @@ if [[ "$latency" == *,* ]]; then
   [ -z "$only" ] || sub+=(--settings "$only")
   [ -z "$jobs" ] || sub+=(--jobs "$jobs")
   [ -z "$hosts" ] || sub+=(--hosts "$hosts")
-  IFS=',' read -ra lats <<< "$latency"
-  echo "experiments: latency sweep over ${lats[*]} steps; results in $out"
-  for l in "${lats[@]}"; do
-    NSIM_RESULTS_DIR="$out/latency_$l" "$0" "${sub[@]}" --latency-steps "$l" \
-      || echo "experiments: the batch at $l steps ended with an error (see $out/latency_$l)" >&2
+  if [[ "$latency" == *,* ]]; then
+    [ -z "$target_offset" ] || sub+=(--target-offset "$target_offset")
+    IFS=',' read -ra values <<< "$latency"
+    echo "experiments: latency sweep over ${values[*]} steps; results in $out"
+  else
+    if [ "$mode" = lockstep ]; then sub+=(--latency-steps "$latency"); else sub+=(--mode "$mode"); fi
+    [ -z "$link_delay" ] || sub+=(--link-delay "$link_delay")
+    IFS=',' read -ra values <<< "$target_offset"
+    echo "experiments: target sweep over ${values[*]} mm along the planned path; results in $out"
+  fi
+  for v in "${values[@]}"; do
+    if [[ "$latency" == *,* ]]; then
+      d="$out/latency_$v"; one=(--latency-steps "$v")
+    else
+      d="$out/target_$(awk -v v="$v" 'BEGIN { printf "%+g", v }')mm"; one=(--target-offset "$v")
+    fi
+    NSIM_RESULTS_DIR="$d" "$0" "${sub[@]}" "${one[@]}" \
+      || echo "experiments: the batch in $d ended with an error" >&2
   done
   collect_sweep "$out"
   exit
@@ -433,12 +472,32 @@ gain_expr=()
 [ -z "$noise" ] || gain_expr+=(-e "s|^\(  marker_noise:\) *[^ #]*|\1 $noise|")
 # and every variant runs in the batch's mode (run.mode)
 gain_expr+=(-e "s|^\(  mode:\).*|\1 $mode|")
+# --target-offset D moves shared.target D mm along the line from shared.entry through it
+moved_target=""
+if [ -n "$target_offset" ]; then
+  moved_target=$(awk -v d="$target_offset" '
+    /^shared:/ { s = 1; next } s && /^[^ #]/ { s = 0 }
+    s && /^  (target|entry):/ { k = $1; sub(/:$/, "", k); v = $0; sub(/^[^[]*\[/, "", v); sub(/\].*$/, "", v)
+                                if (split(v, c, ",") == 3) { p[k, 1] = c[1] + 0; p[k, 2] = c[2] + 0; p[k, 3] = c[3] + 0; got[k] = 1 } }
+    END { if (!got["target"] || !got["entry"]) exit 1
+          n = 0; for (i = 1; i <= 3; i++) { u[i] = p["target", i] - p["entry", i]; n += u[i] * u[i] }
+          if (n <= 0) exit 1
+          n = sqrt(n); if (d / 1000 <= -n) { printf "%.1f", 1000 * n; exit 2 }
+          printf "[%.6f, %.6f, %.6f]", p["target", 1] + d / 1000 * u[1] / n,
+                              p["target", 2] + d / 1000 * u[2] / n, p["target", 3] + d / 1000 * u[3] / n }' "$scenario") \
+    || { [ $? = 2 ] && die "--target-offset $target_offset puts the target at or before the entry (the entry is $moved_target mm before the target)"
+         die "--target-offset: cannot read shared.target and shared.entry (two different points, '  target: [x, y, z]') from $scenario"; }
+  gain_expr+=(-e "/^shared:/,/^[^ #]/ s|^  target:.*|  target: $moved_target   # moved $target_offset mm along the planned path (m)|")
+fi
 variant() {  # variant NAME SED-EXPRESSION...
   local name="$1"; shift
   local dir; dir="$(dirname "$scenario")"
   sed -e "s|\.\./meshes/|$(realpath "$dir/../meshes")/|g" "$@" "${gain_expr[@]}" "$scenario" > "$out/scenario_$name.yaml"
   if [ -n "$gain" ] && ! grep -q "^  gains: {position: $gain," "$out/scenario_$name.yaml"; then
     die "cannot set the gains in $scenario (no '  gains:' line)"
+  fi
+  if [ -n "$moved_target" ] && ! grep -qF "  target: $moved_target " "$out/scenario_$name.yaml"; then
+    die "cannot move the target in $scenario (no '  target:' line under 'shared:')"
   fi
   if [ -n "$noise" ] && ! grep -q "^  marker_noise: $noise\( \|$\)" "$out/scenario_$name.yaml"; then
     die "cannot set the marker noise in $scenario (no '  marker_noise:' line under 'tracker:')"
@@ -512,7 +571,7 @@ njobs=$(wc -l < "$out/jobs.txt")
 # what --collect needs besides jobs.txt (the table's footer), and a record of the batch
 batch_latency="$latency"; [ "$mode" = lockstep ] || batch_latency=measured
 printf '%s %s\n' scenario "$scenario" runs "$runs" seed "$seed" e0 "$e0" e_spread "$espread" mode "$mode" latency_steps "$batch_latency" \
-  marker_noise "${noise:-scenario}" \
+  marker_noise "${noise:-scenario}" target_offset_mm "${target_offset:-0}" \
   duration_s "$duration" transport "$transport" loss_percent "${loss:-0}" link_delay_s "${link_delay:-0}" \
   timeout_s "$timeout" > "$out/batch.txt"
 

@@ -14,9 +14,10 @@ Run with Debian's python3 and matplotlib (python3-matplotlib):
       -> DIR/final_error.png (final error and amplitude per setting, every run a dot)
   /usr/bin/python3 scripts/plot_results.py sweep --sweep SWEEP.csv --out OUT.png
       SWEEP.csv (scripts/experiments.sh --latency-steps 1,3,5,10: latency_steps,setting,runs,
-      final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,...)
-      -> OUT.png: final error (mean +- std, worst dotted) and amplitude against latency, one
-      line per setting
+      final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,...; or
+      --target-offset -6,-3,0,3: target_offset_mm in the first column)
+      -> OUT.png: final error (mean +- std, worst dotted) and amplitude against the swept value
+      (the first column), one line per setting
   /usr/bin/python3 scripts/plot_results.py predict-eval DIR
       DIR/marker<m>.csv + DIR/predict_eval.json (inverse_sim predict-eval, which runs this
       itself) -> DIR/marker<m>.png: the first principal component of the measurement delayed
@@ -180,10 +181,18 @@ def plot_sweep(sweep_csv, out):
     if not os.path.isfile(sweep_csv):
         fail(sweep_csv + ": missing")
     lines = {}
+    x_axes = {"latency_steps": ("latency (lockstep steps of 20 ms)", "latency"),
+            "target_offset_mm": ("target moved along the planned path (mm, + deeper)",
+                                 "the target's depth")}
     with open(sweep_csv) as f:
-        for row in csv.DictReader(f):
+        reader = csv.DictReader(f)
+        swept = (reader.fieldnames or [""])[0]
+        if swept not in x_axes:
+            fail(sweep_csv + ": the first column must be one of " + ", ".join(x_axes) +
+                 ", got '" + swept + "'")
+        for row in reader:
             try:
-                values = [float(row[k]) for k in ("latency_steps", "final_error_mean_mm",
+                values = [float(row[k]) for k in (swept, "final_error_mean_mm",
                                                   "final_error_std_mm", "final_error_worst_mm",
                                                   "amplitude_mean_mm", "amplitude_std_mm")]
             except (KeyError, TypeError, ValueError):
@@ -205,11 +214,11 @@ def plot_sweep(sweep_csv, out):
     left.set_ylabel("final error (mm): mean +- std, worst dotted")
     right.set_ylabel("amplitude (mm): mean +- std")
     for ax in (left, right):
-        ax.set_xlabel("latency (lockstep steps of 20 ms)")
+        ax.set_xlabel(x_axes[swept][0])
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle("Closed loop against latency")
+    fig.suptitle("Closed loop against " + x_axes[swept][1])
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     print("plot_results: wrote " + out)

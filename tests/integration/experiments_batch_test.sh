@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # scripts/experiments.sh's batch description (--dry-run: no simulation runs): the per-run draws
 # of the breathing seed and the patient's Young's modulus, --e-spread, --marker-noise, --mode
-# realtime, --transport two_hosts and in_process with --loss, and their bad values; and
-# --collect's order of a sweep's latencies.
+# realtime, --transport two_hosts and in_process with --loss, --target-offset, and their bad
+# values; and --collect's order of a sweep's latencies and target offsets.
 # Usage: experiments_batch_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: experiments_batch_test.sh SOURCE_DIR}"
@@ -132,6 +132,38 @@ grep -q 'experiment_run.sh run .*--transport in_process .*--loss 5 ' "$work/ip.l
   || fail "--loss 5 in one process: the jobs' command lacks it"
 grep -qx 'loss_percent 5' "$work/ip/batch.txt" || fail "--loss 5 in one process: batch.txt lacks 'loss_percent 5'"
 
+# --target-offset D: shared.target moved D mm along the line from shared.entry through it (its
+# distance from the old target D mm, on the line: the distance to the entry grows by D), in
+# every setting's scenario and nothing else changed; the same draws; refused: out of range, at or
+# before the entry, two lists at once
+scen="$src/configs/scenarios/liver_breathing.yaml"
+point() { awk -v k="$2" '/^shared:/ { s = 1; next } s && /^[^ #]/ { s = 0 }
+  s && $1 == k":" { v = $0; sub(/^[^[]*\[/, "", v); sub(/\].*$/, "", v); gsub(/,/, " ", v); print v; exit }' "$1"; }
+for d in -6.5 +2; do
+  batch "$work/tgt" --target-offset "$d" || fail "--target-offset $d: exit $? ($(cat "$work/tgt.log"))"
+  read -r tx ty tz <<< "$(point "$scen" target)"; read -r ex ey ez <<< "$(point "$scen" entry)"
+  read -r mx my mz <<< "$(point "$work/tgt/scenario_base.yaml" target)"
+  awk -v d="$d" -v tx="$tx" -v ty="$ty" -v tz="$tz" -v ex="$ex" -v ey="$ey" -v ez="$ez" -v mx="$mx" -v my="$my" -v mz="$mz" '
+    function abs(x) { return x < 0 ? -x : x }
+    BEGIN { moved = sqrt((mx - tx) ^ 2 + (my - ty) ^ 2 + (mz - tz) ^ 2)
+            deeper = sqrt((mx - ex) ^ 2 + (my - ey) ^ 2 + (mz - ez) ^ 2) - sqrt((tx - ex) ^ 2 + (ty - ey) ^ 2 + (tz - ez) ^ 2)
+            if (abs(moved - abs(d) / 1000) > 2e-6 || abs(deeper - d / 1000) > 2e-6) {
+              printf "--target-offset %s: moved %.7f m, deeper by %.7f m\n", d, moved, deeper; exit 1 } }' >&2 \
+    || fail "--target-offset $d: the target is not moved along the path (above)"
+  grep -qx "target_offset_mm $d" "$work/tgt/batch.txt" || fail "--target-offset $d: batch.txt lacks 'target_offset_mm $d'"
+  # (run.mode is the batch's: lockstep)
+  cmp -s <(grep -v '^  \(target\|mode\):' "$scen" | sed 's|\.\./meshes/||') \
+         <(grep -v '^  \(target\|mode\):' "$work/tgt/scenario_base.yaml" | sed 's|/[^ ]*/meshes/||') \
+    || fail "--target-offset $d: the scenario changed beyond the target"
+  cmp -s <(cut -f3,4 "$work/default/jobs.txt") <(cut -f3,4 "$work/tgt/jobs.txt") \
+    || fail "--target-offset changed the seeds or the E draws"
+  rm -rf "$work/tgt"
+done
+grep -qx 'target_offset_mm 0' "$work/default/batch.txt" || fail "default: batch.txt lacks 'target_offset_mm 0'"
+refused --target-offset abc 101 -100.5 '' 1,,2
+refused_args 'at or before the entry' --target-offset -60
+refused_args 'one sweep at a time' --target-offset 1,2 --latency-steps 1,3
+
 # --collect on a sweep folder (three one-run batches, their summaries made up here) whose own
 # path holds underscores and digits: sweep.csv lists the latencies in numeric order
 sweep="$work/sweep_2026_12"
@@ -147,6 +179,23 @@ timeout 60 "$src/scripts/experiments.sh" --collect "$sweep" > "$work/sweep.log" 
   || fail "--collect on a sweep: exit $? ($(tail -3 "$work/sweep.log"))"
 [ "$(tail -n +2 "$sweep/sweep.csv" 2>/dev/null | cut -d, -f1,4 | tr '\n' ' ')" = "1,1.0000 3,3.0000 10,10.0000 " ] \
   || fail "--collect: sweep.csv is not in the order of the latencies: $(cut -d, -f1,4 "$sweep/sweep.csv" | tr '\n' ' ')"
+
+# and on a target sweep: the offsets in numeric order, signs and decimals included
+sweep="$work/target_sweep_1"
+for d in +2 -3 +0 -0.5; do
+  b="$sweep/target_${d}mm"
+  mkdir -p "$b/pred_on/run_0/direct"
+  printf 'pred_on\t0\t1\t5500\tnone.yaml\t--prediction on\n' > "$b/jobs.txt"
+  printf 'e0 5500\nseed 1\ne_spread 0.13\nmode lockstep\nlatency_steps 3\n' > "$b/batch.txt"
+  echo "{\"exit\": \"completed\", \"final_error_mm\": ${d#+}, \"final_error_amplitude_mm\": 0.1}" \
+    > "$b/pred_on/run_0/direct/summary.json"
+done
+timeout 60 "$src/scripts/experiments.sh" --collect "$sweep" > "$work/tsweep.log" 2>&1 \
+  || fail "--collect on a target sweep: exit $? ($(tail -3 "$work/tsweep.log"))"
+[ "$(head -1 "$sweep/sweep.csv" 2>/dev/null | cut -d, -f1)" = target_offset_mm ] \
+  || fail "--collect: a target sweep's sweep.csv starts with $(head -1 "$sweep/sweep.csv" | cut -d, -f1)"
+[ "$(tail -n +2 "$sweep/sweep.csv" 2>/dev/null | cut -d, -f1,4 | tr '\n' ' ')" = "-3,-3.0000 -0.5,-0.5000 +0,0.0000 +2,2.0000 " ] \
+  || fail "--collect: sweep.csv is not in the order of the offsets: $(cut -d, -f1,4 "$sweep/sweep.csv" | tr '\n' ' ')"
 
 if [ "$fails" -gt 0 ]; then echo "experiments_batch_test: $fails failure(s)" >&2; exit 1; fi
 echo "experiments_batch_test: passed"
