@@ -165,7 +165,7 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight", "null_space_gain",
-                 "joint_limit_margin", "alignment", "max_needle_tilt", "liver_alignment",
+                 "joint_limit_margin", "alignment", "max_needle_tilt", "max_insertion_step", "liver_alignment",
                  "liver_load"});
   const int alignment = ctl.ReadChoice("alignment", {"tip", "base"});
   if (alignment >= 0)
@@ -173,6 +173,7 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.Read("null_space_gain", &s->loop.control.null_space_gain);
   ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
   ctl.Read("max_needle_tilt", &s->loop.control.max_needle_tilt);
+  ctl.Read("max_insertion_step", &s->loop.control.max_insertion_step);
   ctl.Read("liver_load", &s->loop.control.liver_load);
   const int liver_alignment = ctl.ReadChoice("liver_alignment", {"auto", "none", "base"});
   if (liver_alignment >= 0)

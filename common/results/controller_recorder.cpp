@@ -78,6 +78,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
           {"rejected_frames", n.rejected_frames},
           {"invalid_outputs", n.invalid_outputs},
           {"tilt_limited", n.tilt_limited},
+          {"insertion_limited", n.insertion_limited},
           // the preparation phase (prediction.preparation): frames answered with the hold
           {"preparation_frames", n.prepared},
           // commands the robot did not carry out when due (the forecast pose runs only: lost)
@@ -132,6 +133,7 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"model_bevel", c.model.bevel.enabled},
             {"alignment", c.control.alignment == AlignmentReference::kTip ? "tip" : "base"},
             {"max_needle_tilt_rad", c.control.max_needle_tilt},
+            {"max_insertion_step_m", c.control.max_insertion_step},
             {"liver_alignment", c.control.liver_alignment == LiverAlignment::kAuto   ? "auto"
                                 : c.control.liver_alignment == LiverAlignment::kNone ? "none"
                                                                                       : "base"},

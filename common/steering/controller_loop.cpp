@@ -343,6 +343,7 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
     return std::nullopt;
   }
   counts_.tilt_limited += out.tilt_limited ? 1 : 0;
+  counts_.insertion_limited += out.insertion_limited ? 1 : 0;
   RobotTarget target;
   if (preparing_) {  // the model followed the markers; the robot stays at the hold pose
     target = hold_;

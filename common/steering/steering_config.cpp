@@ -109,6 +109,9 @@ void SteeringControlConfig::Validate() const {
   if (!(max_needle_tilt > 0.0 && max_needle_tilt <= M_PI))
     throw InputError(
         Str("controller.max_needle_tilt must be in (0, pi] (rad), got ", max_needle_tilt));
+  if (!(max_insertion_step >= 0.0 && max_insertion_step <= 0.1))
+    throw InputError(Str("controller.max_insertion_step must be in [0, 0.1] (m per step), got ",
+                         max_insertion_step));
   if (!(joint_limit_margin >= 0.0))
     throw InputError(
         Str("controller.joint_limit_margin must be >= 0 (rad), got ", joint_limit_margin));

@@ -225,6 +225,13 @@ struct SteeringControlConfig {
   /// uses up to 19 degrees to follow the breathing (README "Flexible and bevelled needles").
   /// pi (the default): no bound. (YAML controller.max_needle_tilt)
   double max_needle_tilt = M_PI;
+  /// The needle's advance along its own axis per control step, once the liver is punctured
+  /// (m, >= 0): a target that would advance the needle further is moved back along its axis
+  /// (common/control/insertion_step.h; kJoint7: the joints follow by Newton steps on the flange
+  /// pose). Retraction and the motion across the needle are not bounded; nor is the way from
+  /// the skin to the liver, which the breathing moves beneath the tip. 0 (the default): no
+  /// bound beyond law.max_translation_step. (YAML controller.max_insertion_step)
+  double max_insertion_step = 0.0;
   /// kJoint7: the commanded joints stay this far inside the iiwa's position limits (rad), >= 0.
   double joint_limit_margin = 0.05;
 

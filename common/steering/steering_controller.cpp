@@ -9,6 +9,7 @@
 #include "common/control/control_law.h"
 #include "common/control/delay_margin.h"
 #include "common/control/finite_difference_jacobian.h"
+#include "common/control/insertion_step.h"
 #include "common/control/needle_tilt.h"
 #include "common/core/error.h"
 #include "common/robot/pose_math.h"
@@ -240,10 +241,12 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
         CalcCartesianTarget(base, out.J, out.e_expected, k, control_.law);
     out.valid = law.valid && status.all_finite && converged;
     out.X_WE_target = out.valid ? law.X_WE_target : X_WF;
-    if (out.valid)
+    if (out.valid) {
+      out.insertion_limited = LimitAdvance(out.phase, base, &out.X_WE_target);
       out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(),
                                          TiltPivot(out.X_WE_target), control_.max_needle_tilt,
                                          &out.X_WE_target);
+    }
     out.step_limited = law.step_limited;
     out.q_target = input.q;
   } else {
@@ -265,9 +268,10 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     }
     if (out.valid) {
       Eigen::Isometry3d X = CalcFlangePose(q_target);
+      out.insertion_limited = LimitAdvance(out.phase, CalcFlangePose(base), &X);
       out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(), TiltPivot(X),
                                          control_.max_needle_tilt, &X);
-      if (out.tilt_limited) q_target = flange_ik_.Solve(X, q_target).q;
+      if (out.insertion_limited || out.tilt_limited) q_target = flange_ik_.Solve(X, q_target).q;
     }
     out.q_target = out.valid ? ClampWithMargin(q_target) : input.q;
     out.X_WE_target = CalcFlangePose(out.q_target);
@@ -385,6 +389,13 @@ void SteeringController::UpdateLoadMap() {
       !(eig.eigenvalues()[1] > 0.0))
     return;
   load_map_ = control_.liver_load * K_t.inverse() * T.transpose();
+}
+
+bool SteeringController::LimitAdvance(InsertionPhase phase, const Eigen::Isometry3d& X_WF_base,
+                                      Eigen::Isometry3d* X_WF_target) const {
+  if (phase != InsertionPhase::kInLiver) return false;
+  return LimitNeedleAdvance(needle_axis_F_, needle_p_FBase_, X_WF_base,
+                            control_.max_insertion_step, X_WF_target);
 }
 
 Eigen::Vector3d SteeringController::TiltPivot(const Eigen::Isometry3d& X_WF) const {

@@ -253,6 +253,21 @@ TEST(InverseScenarioLoaderTest, ReadsTheNeedleTiltBound) {
   }
 }
 
+// controller.max_insertion_step: none (0) in the default scenario, the value given, and values
+// outside [0, 0.1] m named by their key
+TEST(InverseScenarioLoaderTest, ReadsTheInsertionStepBound) {
+  const std::string key = "  max_rotation_step: 0.01      # (rad)";
+  EXPECT_EQ(Load(DefaultText()).loop.control.max_insertion_step, 0.0);
+  EXPECT_EQ(Load(Edited(DefaultText(), key, key + "\n  max_insertion_step: 0.0002"))
+                .loop.control.max_insertion_step,
+            0.0002);
+  for (const char* value : {"-0.001", "0.2", ".nan"}) {
+    const std::string bad = LoadError(
+        Edited(DefaultText(), key, key + "\n  max_insertion_step: " + std::string(value)));
+    EXPECT_NE(bad.find("controller.max_insertion_step"), std::string::npos) << value << ": " << bad;
+  }
+}
+
 // controller.liver_alignment: the default scenario's auto, auto without the key, the three
 // choices, and a bad one named by its key
 TEST(InverseScenarioLoaderTest, ReadsTheLiverAlignment) {

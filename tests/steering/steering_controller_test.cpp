@@ -13,6 +13,7 @@
 
 #include "common/control/delay_margin.h"
 #include "common/control/finite_difference_jacobian.h"
+#include "common/control/insertion_step.h"
 #include "common/control/needle_tilt.h"
 #include "common/robot/iiwa14_ik.h"
 #include "tests/steering/steering_test_scene.h"
@@ -85,6 +86,10 @@ struct LoopResult {
   double max_tilt = 0.0;  // largest commanded needle tilt from the planned direction (rad)
   double min_load_gain = 1e9, max_load_gain = 0.0;  // e_l's gain over the steps that had e_l
   int tilt_limited = 0;   // targets turned back onto control.max_needle_tilt
+  int insertion_limited = 0;  // targets moved back onto control.max_insertion_step
+  // the largest advance of the commanded needle along its axis in one step, from the previous
+  // command (m), before the liver and in it
+  double max_advance_outside = 0.0, max_advance_inside = 0.0;
   // the plant liver's force across the needle, |F - (F . a) a| (N): its largest value and its
   // mean over the steps with the liver punctured
   double max_lateral_load = 0.0;
@@ -95,7 +100,7 @@ struct LoopResult {
 LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_steps,
                               double null_space_gain = SteeringControlConfig().null_space_gain,
                               double max_needle_tilt = M_PI, double liver_load = 0.0,
-                              int latency_steps = 0) {
+                              int latency_steps = 0, double max_insertion_step = 0.0) {
   const TetMesh mesh = LoadLiver("liver_700");
   const SteeringPathConfig path = MakePathConfig();
   const InverseModelConfig plant_config = MakeModelConfig(1.0);
@@ -107,6 +112,7 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
   control.null_space_gain = null_space_gain;
   control.max_needle_tilt = max_needle_tilt;
   control.liver_load = liver_load;
+  control.max_insertion_step = max_insertion_step;
   const Eigen::Isometry3d X_WE0 = SteeringSimulation::CalcStartFlangePose(plant_config.needle, path);
 
   Vector7d q = Vector7d::Zero();
@@ -153,10 +159,19 @@ LoopResult RunStaticInsertion(SteeringDof dof, double model_factor, int max_step
           {result.max_null_flange_motion, (after.translation() - without_null.translation()).norm(),
            kNeedleLength * (axis_after - axis_without).norm()});
     }
+    const Eigen::Isometry3d previous =
+        dof == SteeringDof::kJoint7 ? controller.CalcFlangePose(q) : X_WE;
     q = out.q_target;
     X_WE = out.X_WE_target;
     const Eigen::Isometry3d commanded =
         dof == SteeringDof::kJoint7 ? controller.CalcFlangePose(q) : X_WE;
+    // the needle's base point is the flange's origin here
+    const double advance = CalcNeedleAdvance(model_config.needle.axis_F, Eigen::Vector3d::Zero(),
+                                             previous, commanded);
+    double& max_advance = out.phase == InsertionPhase::kInLiver ? result.max_advance_inside
+                                                                : result.max_advance_outside;
+    max_advance = std::max(max_advance, advance);
+    result.insertion_limited += out.insertion_limited ? 1 : 0;
     result.max_tilt = std::max(result.max_tilt, CalcNeedleTilt(commanded, model_config.needle.axis_F,
                                                                path.target_W - path.entry_W));
     result.tilt_limited += out.tilt_limited ? 1 : 0;
@@ -239,6 +254,7 @@ TEST(SteeringControllerTest, TheTiltBoundHoldsEveryCommandedNeedleAxis) {
     const int steps = dof == SteeringDof::kCartesian6 ? 90 : 120;
     const LoopResult free = RunStaticInsertion(dof, 1.1, steps);
     EXPECT_EQ(free.tilt_limited, 0) << name;
+    EXPECT_EQ(free.insertion_limited, 0) << name;
     ASSERT_GT(free.max_tilt, 1e-4) << name << ": the insertion must tilt for the bound to act";
     const double bound = 0.5 * free.max_tilt;
     const LoopResult bounded =
@@ -250,6 +266,31 @@ TEST(SteeringControllerTest, TheTiltBoundHoldsEveryCommandedNeedleAxis) {
     std::printf("%s: tilt %.3g rad free, bound %.3g rad: at most %.3g rad, %d targets turned, "
                 "final error %.4f mm\n",
                 name, free.max_tilt, bound, bounded.max_tilt, bounded.tilt_limited,
+                1e3 * bounded.final_error);
+  }
+}
+
+// controller.max_insertion_step: once the liver is punctured no command advances the needle
+// along its axis by more than the bound (a third of the 3 mm translation cap) from the previous
+// one (the joint target through the flange pose it reaches by Newton steps: to 1e-9 m), some
+// targets were moved back, the approach before the liver is not bounded, and the insertion still
+// reaches its target (without the bound nothing is moved: TheTiltBoundHoldsEveryCommandedNeedleAxis)
+TEST(SteeringControllerTest, TheInsertionBoundHoldsEveryCommandInTheTissue) {
+  constexpr double kBound = 0.001;
+  for (SteeringDof dof : {SteeringDof::kCartesian6, SteeringDof::kJoint7}) {
+    const char* name = dof == SteeringDof::kCartesian6 ? "cartesian6" : "joint7";
+    const int steps = dof == SteeringDof::kCartesian6 ? 150 : 200;
+    const LoopResult bounded = RunStaticInsertion(
+        dof, 1.1, steps, SteeringControlConfig().null_space_gain, M_PI, 0.0, 0, kBound);
+    EXPECT_GT(bounded.insertion_limited, 0) << name;
+    EXPECT_LE(bounded.max_advance_inside, kBound + 1e-9) << name;
+    EXPECT_GT(bounded.max_advance_outside, kBound) << name << ": the approach is not bounded";
+    EXPECT_TRUE(bounded.reached_end) << name;
+    EXPECT_LT(bounded.final_error, kFinalTolerance) << name;
+    std::printf("%s: bound %.3g mm a step: at most %.3g mm in the tissue (%.3g mm before it), "
+                "%d targets moved back, final error %.4f mm\n",
+                name, 1e3 * kBound, 1e3 * bounded.max_advance_inside,
+                1e3 * bounded.max_advance_outside, bounded.insertion_limited,
                 1e3 * bounded.final_error);
   }
 }
