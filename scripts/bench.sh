@@ -15,8 +15,9 @@
 #                     the floor and naive baselines are always run for the sizes selected
 #   --baseline DIR    a second build directory (e.g. of the previous release): its bench/
 #                     binaries run the same benchmarks, in the same session, as another column;
-#                     each benchmark runs in the current build and then at once in the baseline
-#                     (interleaved, so that a machine's drift over the run cancels in the ratio)
+#                     each benchmark runs one repetition at a time, alternately in the two
+#                     builds and in alternating order (current first in odd repetitions), so
+#                     that a machine's drift over the run, and the order, cancel in the ratio
 #   --cpu C           the core everything runs on (taskset -c C; default 1)
 #   --two-cores LIST  also run the step-sequence benchmarks (*Sequence*) on these cores (default
 #                     0,1): the background factor refresh needs a second core to be off the
@@ -104,10 +105,11 @@ list_tests() {
   printf '%s' "$names"
 }
 
-# run_binary <label> <binary> <cpus> <filter> <output stem>: one invocation, reps repetitions
+# run_binary <label> <binary> <cpus> <filter> <output stem> [repetitions]: one invocation,
+# reps repetitions unless given
 run_binary() {
-  local label="$1" bin="$2" cpus="$3" sel="$4" stem="$5"
-  local args=(--benchmark_repetitions="$reps" --benchmark_report_aggregates_only=true
+  local label="$1" bin="$2" cpus="$3" sel="$4" stem="$5" n="${6:-$reps}"
+  local args=(--benchmark_repetitions="$n" --benchmark_report_aggregates_only=true
               --benchmark_out="$out/raw/${label}__${stem}.json" --benchmark_out_format=json)
   [ -n "$sel" ] && args+=(--benchmark_filter="$sel")
   echo "== $label: $(basename "$bin") ${sel:+($sel) }on cpu $cpus" >&2
@@ -127,9 +129,11 @@ run() {
   done
 }
 
-# run_interleaved <suffix> <cpus> <filter> [sequences-only]: each benchmark of the current build,
-# then the same benchmark of the baseline build, one after the other, so that the two columns
-# are measured seconds apart (a machine whose speed drifts over the run drifts both alike)
+# run_interleaved <suffix> <cpus> <filter> [sequences-only]: each benchmark one repetition at a
+# time, alternately in the current and the baseline build, and in alternating order (current
+# first in odd repetitions, baseline first in even ones), so that the two columns are measured
+# seconds apart and neither always runs first (a machine whose speed drifts over the run drifts
+# both alike; a benchmark that runs right after another pays, or gains from, its state alike)
 run_interleaved() {
   local suffix="$1" cpus="$2" sel="$3" only_sequences="${4:-}" bin name test base_names i
   for bin in "$build"/bench/*_bench; do
@@ -144,12 +148,18 @@ run_interleaved() {
       [ -n "$test" ] || continue
       i=$((i + 1))
       # the name as a regular expression matching only itself
-      local exact="^$(sed 's/[][\\.^$*+?(){}|]/\\&/g' <<<"$test")\$"
-      run_binary "current$suffix" "$bin" "$cpus" "$exact" "${name}__$i"
+      local exact="^$(sed 's/[][\\.^$*+?(){}|]/\\&/g' <<<"$test")\$" r in_base=0
       # a benchmark the baseline does not have gets no baseline figure
-      if grep -qxF "$test" <<<"$base_names"; then
-        run_binary "baseline$suffix" "$baseline/bench/$name" "$cpus" "$exact" "${name}__$i"
-      fi
+      grep -qxF "$test" <<<"$base_names" && in_base=1
+      for ((r = 1; r <= reps; r++)); do
+        if [ "$in_base" = 1 ] && [ $((r % 2)) = 0 ]; then
+          run_binary "baseline$suffix" "$baseline/bench/$name" "$cpus" "$exact" "${name}__${i}__r$r" 1
+        fi
+        run_binary "current$suffix" "$bin" "$cpus" "$exact" "${name}__${i}__r$r" 1
+        if [ "$in_base" = 1 ] && [ $((r % 2)) = 1 ]; then
+          run_binary "baseline$suffix" "$baseline/bench/$name" "$cpus" "$exact" "${name}__${i}__r$r" 1
+        fi
+      done
     done <<<"$(list_tests "$bin" "$sel" "$only_sequences")"
   done
 }

@@ -31,8 +31,8 @@ def clean_name(run_name):
 def load(out):
     runs = []
     for path in sorted(glob.glob(os.path.join(out, "raw", "*.json"))):
-        # <label>__<binary>.json, or <label>__<binary>__<k>.json for one benchmark of an
-        # interleaved run (--baseline)
+        # <label>__<binary>.json, or <label>__<binary>__<k>__r<rep>.json for one repetition of
+        # one benchmark of an interleaved run (--baseline)
         label, binary = os.path.basename(path)[:-len(".json")].split("__")[:2]
         try:
             with open(path) as f:
@@ -45,27 +45,43 @@ def load(out):
     return runs
 
 
+COUNTERS = ("p50_ms", "p99_ms", "max_ms", "over_20ms", "dofs")
+
+
+def median(values):
+    s = sorted(values)
+    n = len(s)
+    return s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
+
+
 def medians(runs):
-    """{label: {name: {"binary", "ms", "p50", "p99", "max", "reps"}}} from the median aggregates
-    (or the single run when there were no repetitions)."""
-    table = {}
+    """{label: {name: {"binary", "ms", "p50", "p99", "max", "reps"}}}: the median over the
+    repetitions: a file's median aggregate, or its single run without repetitions; several
+    files of one benchmark and build (an interleaved run writes one file a repetition) give the
+    median of theirs."""
+    found = {}  # (label, name) -> [(binary, entry, repetitions)]
     for run in runs:
+        with_median = {x.get("run_name") for x in run["benchmarks"]
+                       if x.get("aggregate_name") == "median"}
         for b in run["benchmarks"]:
-            aggregate = b.get("aggregate_name")
-            if b.get("run_type") == "aggregate" and aggregate != "median":
-                continue
-            if b.get("run_type") == "iteration" and any(
-                    x.get("aggregate_name") == "median" and x.get("run_name") == b.get("run_name")
-                    for x in run["benchmarks"]):
+            if b.get("run_type") == "aggregate":
+                if b.get("aggregate_name") != "median":
+                    continue
+            elif b.get("run_name") in with_median:
                 continue
             name = clean_name(b.get("run_name", b["name"]))
-            unit = TO_MS[b.get("time_unit", "ns")]
-            entry = {"binary": run["binary"], "ms": b["real_time"] * unit,
-                     "reps": b.get("repetitions", 1)}
-            for counter in ("p50_ms", "p99_ms", "max_ms", "over_20ms", "dofs"):
-                if counter in b:
-                    entry[counter] = b[counter]
-            table.setdefault(run["label"], {})[name] = entry
+            found.setdefault((run["label"], name), []).append(
+                (run["binary"], b, b.get("repetitions", 1)))
+    table = {}
+    for (label, name), items in found.items():
+        entry = {"binary": items[0][0], "reps": sum(n for _, _, n in items),
+                 "ms": median([b["real_time"] * TO_MS[b.get("time_unit", "ns")]
+                               for _, b, _ in items])}
+        for c in COUNTERS:
+            values = [b[c] for _, b, _ in items if c in b]
+            if values:
+                entry[c] = median(values)
+        table.setdefault(label, {})[name] = entry
     return table
 
 

@@ -153,6 +153,31 @@ def main():
         solve = [l for l in md.splitlines() if l.startswith("| `Solve/2660` |")]
         check(solve and "0.5x" in solve[0], f"the second benchmark's baseline {solve}")
 
+    with tempfile.TemporaryDirectory() as out:  # an interleaved run: a file per repetition
+        os.makedirs(os.path.join(out, "raw"))
+        name = "DirectSceneSequence/Paced/Rest/2660/iter"
+
+        def single(ms, p99):  # Google Benchmark's file of one repetition: no aggregate
+            return [{"name": name, "run_name": name, "run_type": "iteration", "real_time": ms,
+                     "time_unit": "ms", "p50_ms": ms, "p99_ms": p99}]
+        files = {"current__scene_bench__1__r1": single(5.0, 7.0),
+                 "baseline__scene_bench__1__r1": single(4.0, 30.0),
+                 "current__scene_bench__1__r2": single(9.0, 20.0),
+                 "baseline__scene_bench__1__r2": single(4.5, 6.0),
+                 "current__scene_bench__1__r3": single(6.0, 8.0),
+                 "baseline__scene_bench__1__r3": single(30.0, 5.0)}
+        for stem, entries in files.items():
+            with open(os.path.join(out, "raw", stem + ".json"), "w") as f:
+                json.dump({"context": {}, "benchmarks": entries}, f)
+        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                        "--two-cores", "none", "--baseline", out, out], check=True)
+        md = open(os.path.join(out, "bench.md")).read()
+        row = [l for l in md.splitlines() if l.startswith(f"| `{name}` |")]
+        # the medians over the three files: 6 ms (p99 8 ms) against 4.5 ms (p99 6 ms)
+        check(row and "| scene_bench | 6 ms |" in row[0] and "| 8 ms |" in row[0] and
+              "| 4.5 ms | 6 ms |" in row[0] and "1.33x" in row[0],
+              f"the medians of single repetitions {row}")
+
     for f in failures:
         print("FAILED:", f)
     print("bench_report_test:", "ok" if not failures else f"{len(failures)} failures")
