@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -15,12 +16,42 @@
 
 namespace nsim::testing {
 
-/// An empty folder <tmp>/nsim_<name>_<pid> (removed first if it exists).
+/// Removes the folders of TempDir when the test that made them ends passed; a failed test's
+/// are kept for inspection (and named on stderr).
+class TempDirCleaner : public ::testing::EmptyTestEventListener {
+ public:
+  void Add(const std::filesystem::path& dir) { dirs_.push_back(dir); }
+
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    for (const std::filesystem::path& dir : dirs_) {
+      if (info.result() != nullptr && info.result()->Passed()) {
+        std::error_code ignored;
+        std::filesystem::remove_all(dir, ignored);
+      } else {
+        std::fprintf(stderr, "kept %s (the test failed)\n", dir.c_str());
+      }
+    }
+    dirs_.clear();
+  }
+
+ private:
+  std::vector<std::filesystem::path> dirs_;
+};
+
+/// An empty folder <tmp>/nsim_<name>_<pid> (removed first if it exists), removed again when
+/// the test ends passed, kept when it fails.
 inline std::filesystem::path TempDir(const std::string& name) {
+  // GoogleTest owns the listener once appended
+  static TempDirCleaner* const cleaner = [] {
+    auto* listener = new TempDirCleaner;
+    ::testing::UnitTest::GetInstance()->listeners().Append(listener);
+    return listener;
+  }();
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("nsim_" + name + "_" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  cleaner->Add(dir);
   return dir;
 }
 
