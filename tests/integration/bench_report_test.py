@@ -27,6 +27,17 @@ def bench(name, ms_reps, dofs=None):
     return entries + [aggregate]
 
 
+def interleaved_table(source, out, files):
+    """Writes OUT/raw/<stem>.json for each {stem: entries} of an interleaved run, runs
+    bench_report.py with the same folder as baseline, returns bench.md."""
+    for stem, entries in files.items():
+        with open(os.path.join(out, "raw", stem + ".json"), "w") as f:
+            json.dump({"context": {}, "benchmarks": entries}, f)
+    subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
+                    "--two-cores", "none", "--baseline", out, out], check=True)
+    return open(os.path.join(out, "bench.md")).read()
+
+
 def main():
     source = sys.argv[1]
     failures = []
@@ -140,12 +151,7 @@ def main():
                  "baseline__fem_bench__1": bench("LiverStep/2660", [12.0, 20.0, 11.0]),
                  "current__fem_bench__2": bench("Solve/2660", [1.0]),
                  "baseline__fem_bench__2": bench("Solve/2660", [2.0])}
-        for stem, entries in files.items():
-            with open(os.path.join(out, "raw", stem + ".json"), "w") as f:
-                json.dump({"context": {}, "benchmarks": entries}, f)
-        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
-                        "--two-cores", "none", "--baseline", out, out], check=True)
-        md = open(os.path.join(out, "bench.md")).read()
+        md = interleaved_table(source, out, files)
         step = [l for l in md.splitlines() if l.startswith("| `LiverStep/2660` |")]
         # median 9 against the baseline's median 12, binary named without the benchmark's index
         check(step and "| fem_bench | 9 ms |" in step[0] and "| 12 ms |" in step[0] and
@@ -166,12 +172,7 @@ def main():
                  "baseline__scene_bench__1__r2": single(4.5, 6.0),
                  "current__scene_bench__1__r3": single(6.0, 8.0),
                  "baseline__scene_bench__1__r3": single(30.0, 5.0)}
-        for stem, entries in files.items():
-            with open(os.path.join(out, "raw", stem + ".json"), "w") as f:
-                json.dump({"context": {}, "benchmarks": entries}, f)
-        subprocess.run([sys.executable, os.path.join(source, "scripts", "bench_report.py"),
-                        "--two-cores", "none", "--baseline", out, out], check=True)
-        md = open(os.path.join(out, "bench.md")).read()
+        md = interleaved_table(source, out, files)
         row = [l for l in md.splitlines() if l.startswith(f"| `{name}` |")]
         # the medians over the three files: 6 ms (p99 8 ms) against 4.5 ms (p99 6 ms)
         check(row and "| scene_bench | 6 ms |" in row[0] and "| 8 ms |" in row[0] and
