@@ -268,7 +268,8 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     }
     if (out.valid) {
       Eigen::Isometry3d X = CalcFlangePose(q_target);
-      out.insertion_limited = LimitAdvance(out.phase, CalcFlangePose(base), &X);
+      out.insertion_limited = control_.max_insertion_step > 0.0 &&
+                              LimitAdvance(out.phase, CalcFlangePose(base), &X);
       out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(), TiltPivot(X),
                                          control_.max_needle_tilt, &X);
       if (out.insertion_limited || out.tilt_limited) q_target = flange_ik_.Solve(X, q_target).q;
