@@ -253,17 +253,18 @@ TEST(InverseScenarioLoaderTest, ReadsTheNeedleTiltBound) {
   }
 }
 
-// controller.max_insertion_step: none (0) in the default scenario, the value given, and values
-// outside [0, 0.1] m named by their key
+// controller.max_insertion_step: none (0) in the default scenario and without the key, the value
+// given, and values outside [0, 0.1] m named by their key
 TEST(InverseScenarioLoaderTest, ReadsTheInsertionStepBound) {
-  const std::string key = "  max_rotation_step: 0.01      # (rad)";
+  const std::string key = "  max_insertion_step: 0\n";
   EXPECT_EQ(Load(DefaultText()).loop.control.max_insertion_step, 0.0);
-  EXPECT_EQ(Load(Edited(DefaultText(), key, key + "\n  max_insertion_step: 0.0002"))
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "")).loop.control.max_insertion_step, 0.0);
+  EXPECT_EQ(Load(Edited(DefaultText(), key, "  max_insertion_step: 0.0002\n"))
                 .loop.control.max_insertion_step,
             0.0002);
   for (const char* value : {"-0.001", "0.2", ".nan"}) {
     const std::string bad = LoadError(
-        Edited(DefaultText(), key, key + "\n  max_insertion_step: " + std::string(value)));
+        Edited(DefaultText(), key, "  max_insertion_step: " + std::string(value) + "\n"));
     EXPECT_NE(bad.find("controller.max_insertion_step"), std::string::npos) << value << ": " << bad;
   }
 }
