@@ -318,11 +318,13 @@ collect_batch() {  # collect_batch DIR
 
 # ---- a sweep: its table and plot, from the batches DIR/latency_<N>/ or DIR/target_<D>mm/ ----
 collect_sweep() {  # collect_sweep DIR
-  local dir="$1" d v prefix suffix column label unit
+  local dir="$1" d v prefix suffix column label unit heading footnote
   if compgen -G "$dir/latency_*" > /dev/null; then
     prefix=latency_; suffix=""; column=latency_steps; label=latency; unit=steps
+    heading=latency; footnote="latency in lockstep steps"
   else
     prefix=target_; suffix=mm; column=target_offset_mm; label="target offset"; unit=mm
+    heading=offset; footnote="offset = the target moved along the planned path (mm, + deeper)"
   fi
   echo "$column,setting,runs,final_error_mean_mm,final_error_std_mm,final_error_worst_mm,amplitude_mean_mm,amplitude_std_mm,failed" > "$dir/sweep.csv"
   : > "$dir/sweep_pairs.txt"
@@ -345,11 +347,10 @@ collect_sweep() {  # collect_sweep DIR
   done
   {
     awk -F, 'NR == 1 { next } { printf "%7s  %-16s %4d  %7.3f +- %5.3f  %7.3f  %7.3f +- %5.3f  %6d\n", $1, $2, $3, $4, $5, $6, $7, $8, $9 }' \
-      "$dir/sweep.csv" | sed "1i $(printf '%-7s' "$( [ "$unit" = mm ] && echo 'offset' || echo 'latency')")  setting          runs  final error (mm)  worst (mm)  amplitude (mm)  failed"
+      "$dir/sweep.csv" | sed "1i $(printf '%-7s' "$heading")  setting          runs  final error (mm)  worst (mm)  amplitude (mm)  failed"
     echo
     echo "final error = mean true tip-to-target distance over the last 20 % of each run, amplitude = its"
-    echo "peak-to-peak; mean +- std over runs; worst = the largest final error; $( [ "$unit" = mm ] &&
-      echo 'offset = the target moved along the planned path (mm, + deeper)' || echo 'latency in lockstep steps')"
+    echo "peak-to-peak; mean +- std over runs; worst = the largest final error; $footnote"
     echo
     echo "prediction on - off, paired by run (|t| > 2.08: significant at 5 % for 22 runs):"
     cat "$dir/sweep_pairs.txt"
@@ -406,23 +407,22 @@ if [[ "$latency" == *,* || "$target_offset" == *,* ]]; then
   [ -z "$only" ] || sub+=(--settings "$only")
   [ -z "$jobs" ] || sub+=(--jobs "$jobs")
   [ -z "$hosts" ] || sub+=(--hosts "$hosts")
+  # the swept option, its values, and each value's folder
   if [[ "$latency" == *,* ]]; then
     [ -z "$target_offset" ] || sub+=(--target-offset "$target_offset")
-    IFS=',' read -ra values <<< "$latency"
+    swept=--latency-steps; IFS=',' read -ra values <<< "$latency"
+    folder() { echo "$out/latency_$1"; }
     echo "experiments: latency sweep over ${values[*]} steps; results in $out"
   else
     if [ "$mode" = lockstep ]; then sub+=(--latency-steps "$latency"); else sub+=(--mode "$mode"); fi
     [ -z "$link_delay" ] || sub+=(--link-delay "$link_delay")
-    IFS=',' read -ra values <<< "$target_offset"
+    swept=--target-offset; IFS=',' read -ra values <<< "$target_offset"
+    folder() { echo "$out/target_$(awk -v v="$1" 'BEGIN { printf "%+g", v }')mm"; }
     echo "experiments: target sweep over ${values[*]} mm along the planned path; results in $out"
   fi
   for v in "${values[@]}"; do
-    if [[ "$latency" == *,* ]]; then
-      d="$out/latency_$v"; one=(--latency-steps "$v")
-    else
-      d="$out/target_$(awk -v v="$v" 'BEGIN { printf "%+g", v }')mm"; one=(--target-offset "$v")
-    fi
-    NSIM_RESULTS_DIR="$d" "$0" "${sub[@]}" "${one[@]}" \
+    d="$(folder "$v")"
+    NSIM_RESULTS_DIR="$d" "$0" "${sub[@]}" "$swept" "$v" \
       || echo "experiments: the batch in $d ended with an error" >&2
   done
   collect_sweep "$out"
