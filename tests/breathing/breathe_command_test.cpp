@@ -4,13 +4,12 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "common/core/error.h"
 #include "common/markers/marker_csv.h"
+#include "tests/integration/test_util.h"
 
 namespace nsim {
 namespace {
@@ -23,18 +22,10 @@ int RunCommand(std::vector<std::string> args) {
   return RunBreathe(static_cast<int>(argv.size()), argv.data());
 }
 
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::ReadText;
 
-std::string TempPath(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "nsim_breathe_command_test";
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
-}
+// a file in the running test's own temporary folder (removed when the test passes)
+std::string TempPath(const std::string& name) { return (testing::TestTempDir() / name).string(); }
 
 TEST(BreatheCommand, WritesAReadableStreamReproducibly) {
   const std::string a = TempPath("a.csv"), b = TempPath("b.csv"), c = TempPath("c.csv");
@@ -51,8 +42,8 @@ TEST(BreatheCommand, WritesAReadableStreamReproducibly) {
   EXPECT_EQ(stream.num_markers, 3);
   ASSERT_EQ(stream.frames.size(), 201u);
   EXPECT_DOUBLE_EQ(stream.frames.back().stamp.sim_time, 10.0);
-  EXPECT_EQ(ReadFile(a), ReadFile(b));
-  EXPECT_NE(ReadFile(a), ReadFile(c));
+  EXPECT_EQ(ReadText(a), ReadText(b));
+  EXPECT_NE(ReadText(a), ReadText(c));
   // the motion is SI dominant: z range larger than x range for every marker
   for (int m = 0; m < 3; ++m) {
     double z_lo = 1, z_hi = -1, x_lo = 1, x_hi = -1;

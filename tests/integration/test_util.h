@@ -55,6 +55,24 @@ inline std::filesystem::path TempDir(const std::string& name) {
   return dir;
 }
 
+/// The TempDir of the running test, <tmp>/nsim_<suite>_<test>_<pid>: made empty by the first
+/// call in a test, the same folder for the later calls in it.
+inline std::filesystem::path TestTempDir() {
+  static std::string made_for;
+  static std::filesystem::path dir;
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string key =
+      info == nullptr ? "no_test" : std::string(info->test_suite_name()) + "_" + info->name();
+  for (char& c : key) {
+    if (c == '/') c = '_';
+  }
+  if (key != made_for) {
+    dir = TempDir(key);
+    made_for = key;
+  }
+  return dir;
+}
+
 /// The whole content of a text file ("" if it cannot be read).
 inline std::string ReadText(const std::filesystem::path& path) {
   std::ifstream in(path);

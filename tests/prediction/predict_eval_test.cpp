@@ -19,6 +19,7 @@
 #include "common/breathing/marker_motion.h"
 #include "common/core/error.h"
 #include "common/markers/marker_csv.h"
+#include "tests/integration/test_util.h"
 
 namespace nsim {
 namespace {
@@ -32,11 +33,8 @@ int RunCommand(std::vector<std::string> args) {
   return RunPredictEval(static_cast<int>(argv.size()), argv.data());
 }
 
-fs::path TestDir() {
-  const fs::path dir = fs::temp_directory_path() / "nsim_predict_eval_test";
-  fs::create_directories(dir);
-  return dir;
-}
+// the running test's own temporary folder (removed when the test passes)
+fs::path TestDir() { return testing::TestTempDir(); }
 
 // the figures are drawn by scripts/plot_results.py when Debian's python3 has matplotlib
 bool HavePythonMatplotlib() {
@@ -124,8 +122,9 @@ TEST(PredictEval, RunsOnAGeneratedStreamAndWritesJsonTableAndPlots) {
   for (int m = 0; m < 3; ++m) {
     const std::string name = "marker" + std::to_string(m);
     const auto [header, rows] = ReadSeries(out / (name + ".csv"));
-    EXPECT_EQ(header,
-              "t,delayed_pc_mm,reference_pc_mm,predicted_pc_mm,error_predicted_mm,error_delayed_mm");
+    EXPECT_EQ(
+        header,
+        "t,delayed_pc_mm,reference_pc_mm,predicted_pc_mm,error_predicted_mm,error_delayed_mm");
     EXPECT_EQ(static_cast<size_t>(rows), grid);
     if (!figures) continue;  // predict-eval says the figures were not made, and succeeds
     // scripts/plot_results.py predict-eval: 10 x 8 in at 100 dpi, two stacked panels
