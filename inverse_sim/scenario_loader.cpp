@@ -165,8 +165,8 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.CheckKeys({"dof", "path", "pose_steps", "joint_steps", "gains", "regularization",
                  "max_translation_step", "max_rotation_step", "max_joint_step",
                  "liver_entry_objective", "compensate_in_flight", "null_space_gain",
-                 "joint_limit_margin", "alignment", "max_needle_tilt", "max_insertion_step", "liver_alignment",
-                 "liver_load"});
+                 "joint_limit_margin", "alignment", "max_needle_tilt", "max_insertion_step",
+                 "free_stretch_step", "free_stretch_tolerance", "liver_alignment", "liver_load"});
   const int alignment = ctl.ReadChoice("alignment", {"tip", "base"});
   if (alignment >= 0)
     s->loop.control.alignment = alignment == 0 ? AlignmentReference::kTip : AlignmentReference::kBase;
@@ -174,6 +174,8 @@ void ReadController(const YamlReader& ctl, const std::string& path, InverseScena
   ctl.Read("joint_limit_margin", &s->loop.control.joint_limit_margin);
   ctl.Read("max_needle_tilt", &s->loop.control.max_needle_tilt);
   ctl.Read("max_insertion_step", &s->loop.control.max_insertion_step);
+  ctl.Read("free_stretch_step", &s->loop.control.free_stretch_step);
+  ctl.Read("free_stretch_tolerance", &s->loop.control.free_stretch_tolerance);
   ctl.Read("liver_load", &s->loop.control.liver_load);
   const int liver_alignment = ctl.ReadChoice("liver_alignment", {"auto", "none", "base"});
   if (liver_alignment >= 0)

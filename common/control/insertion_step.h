@@ -9,9 +9,12 @@
 // free stretch, common/needle/needle_tissue.h); at that speed the stretch lasts a few steps, and
 // a lateral error left when it ends is carried to the target (README, "Where the target falls
 // between the trajectory points"). A slower advance gives the lateral correction those steps.
-// Measured, it costs more than it gives: at 10 mm/s both livers are dragged through a breathing
-// cycle by the half-inserted needle and the registration fails (docs/control.md, "Two remedies
-// that are not"); the bound is off by default, kept to study the insertion speed.
+// Everywhere in the liver (controller.max_insertion_step) it costs more than it gives: at 10 mm/s
+// both livers are dragged through a breathing cycle by the half-inserted needle and the
+// registration fails (docs/control.md, "Two remedies that are not"); that bound is off by
+// default, kept to study the insertion speed. In the last free stretch before a target the tip
+// would reach held (controller.free_stretch_step, SteeringController::LimitAdvance) it is on by
+// default: that one stretch is where the lateral error the target sees is last corrected.
 //
 // Only the forward part along the needle is bounded: retraction, the motion across the needle
 // and the turn are returned unchanged, so breathing is followed as before.

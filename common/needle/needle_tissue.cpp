@@ -408,6 +408,23 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
   }
 }
 
+std::optional<NeedleTissueCoupling::TipStretch> NeedleTissueCoupling::CalcTipStretch(
+    int t, const NeedleCouplingState& state) const {
+  NSIM_CHECK(t >= 0 && t < num_tissues(), "tissue ", t, " of ", num_tissues());
+  const TissueCouplingConfig& cfg = config_.tissues[t];
+  const TissueCouplingState& ts = state.tissues[t];
+  if (ts.phase != TissuePhase::kInside) return std::nullopt;
+  // as AddConstraints measures it: the depth past the last seed at the step's start
+  const double past_seed = ts.report.depth - ts.last_seed_depth;
+  TipStretch s;
+  s.next_seed = std::max(0.0, cfg.point_spacing - past_seed);
+  if (cfg.tip_constraint && cfg.tip_hold != TipHold::kHandover) {
+    s.free_length = kTipSkipFraction * cfg.point_spacing;
+    s.free_reach = std::max(0.0, s.free_length - past_seed);
+  }
+  return s;
+}
+
 void NeedleTissueCoupling::Update(const NeedleView& needle,
                                   const std::vector<const Eigen::Matrix3Xd*>& tissue_x,
                                   const Eigen::VectorXd& lambda, double time,

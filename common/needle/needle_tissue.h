@@ -66,6 +66,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -267,6 +268,21 @@ class NeedleTissueCoupling {
   /// signed distance, then a global search unless p is outside for sure (past a concavity p
   /// may still be inside). tet = -1: outside.
   TetPoint Locate(int t, const Eigen::Matrix3Xd& x, const Eigen::Vector3d& p, int hint) const;
+
+  /// Where the tip of tissue t is between its trajectory points, as distances ahead of it (m).
+  struct TipStretch {
+    /// How much further the tip can advance before its lateral hold engages: the rest of the
+    /// free stretch past the last seeded point (tip_hold quarter, ramp: up to a quarter
+    /// spacing past it); 0 when the tip is held there (handover) or the coupling has no tip
+    /// constraint. Where the needle can still be moved across its tissue.
+    double free_reach = 0.0;
+    /// How much further until the next point is seeded.
+    double next_seed = 0.0;
+    /// The length of a free stretch (a quarter spacing; 0 with handover or no tip constraint).
+    double free_length = 0.0;
+  };
+  /// The tip's stretch in tissue t after the last Update; nullopt unless the tip is inside it.
+  std::optional<TipStretch> CalcTipStretch(int t, const NeedleCouplingState& state) const;
 
   /// The bevel load for the next step (inactive with a symmetric tip or the tip outside).
   BevelTipLoad CalcBevelTipLoad(const NeedleView& needle, const NeedleCouplingState& state) const;

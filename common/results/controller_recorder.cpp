@@ -134,6 +134,8 @@ json ControllerRecorder::Summary(const ControllerLoop& loop, const ControllerRun
             {"alignment", c.control.alignment == AlignmentReference::kTip ? "tip" : "base"},
             {"max_needle_tilt_rad", c.control.max_needle_tilt},
             {"max_insertion_step_m", c.control.max_insertion_step},
+            {"free_stretch_step_m", c.control.free_stretch_step},
+            {"free_stretch_tolerance_m", c.control.free_stretch_tolerance},
             {"liver_alignment", c.control.liver_alignment == LiverAlignment::kAuto   ? "auto"
                                 : c.control.liver_alignment == LiverAlignment::kNone ? "none"
                                                                                       : "base"},

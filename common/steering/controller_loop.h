@@ -155,7 +155,8 @@ struct ControllerCounts {
   uint64_t targets = 0;          ///< targets produced
   uint64_t invalid_outputs = 0;  ///< answered without a target (non-finite objectives)
   uint64_t tilt_limited = 0;     ///< targets turned back onto controller.max_needle_tilt
-  uint64_t insertion_limited = 0;  ///< targets moved back onto controller.max_insertion_step
+  /// targets moved back onto controller.max_insertion_step or free_stretch_step
+  uint64_t insertion_limited = 0;
   uint64_t rejected_frames = 0;  ///< frames refused (malformed, out of order, no robot state)
   uint64_t observed = 0;         ///< frames fed to the predictor
   uint64_t prepared = 0;         ///< frames answered with the hold of the preparation phase

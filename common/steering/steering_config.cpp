@@ -112,6 +112,12 @@ void SteeringControlConfig::Validate() const {
   if (!(max_insertion_step >= 0.0 && max_insertion_step <= 0.1))
     throw InputError(Str("controller.max_insertion_step must be in [0, 0.1] (m per step), got ",
                          max_insertion_step));
+  if (!(free_stretch_step >= 0.0 && free_stretch_step <= 0.1))
+    throw InputError(Str("controller.free_stretch_step must be in [0, 0.1] (m per step), got ",
+                         free_stretch_step));
+  if (!(free_stretch_tolerance >= 0.0 && std::isfinite(free_stretch_tolerance)))
+    throw InputError(Str("controller.free_stretch_tolerance must be finite and >= 0 (m), got ",
+                         free_stretch_tolerance));
   if (!(joint_limit_margin >= 0.0))
     throw InputError(
         Str("controller.joint_limit_margin must be >= 0 (rad), got ", joint_limit_margin));

@@ -232,6 +232,19 @@ struct SteeringControlConfig {
   /// the skin to the liver, which the breathing moves beneath the tip. 0 (the default): no
   /// bound beyond law.max_translation_step. (YAML controller.max_insertion_step)
   double max_insertion_step = 0.0;
+  /// The last free stretch before the target, planned. The needle can be moved across its
+  /// tissue only in the first quarter spacing past each trajectory point (the coupling's free
+  /// stretch, NeedleTissueCoupling::CalcTipStretch); beyond it the tip is held and only
+  /// advances along its axis. While the model's tip is in a free stretch from which it would
+  /// reach the final target held, over more than a stretch's length and with no point seeded
+  /// on the way, and the target is more than free_stretch_tolerance (m, >= 0) off the needle's
+  /// axis, the needle's advance per step is bounded by free_stretch_step (m, >= 0; 0: off), so
+  /// that the lateral error is corrected before the hold engages instead of being carried to
+  /// the target (README "Where the target falls between the trajectory points"). A target at
+  /// most a stretch's length past the end of one (the default scenario's) is not affected.
+  /// (YAML controller.free_stretch_step, controller.free_stretch_tolerance)
+  double free_stretch_step = 0.0002;
+  double free_stretch_tolerance = 1e-4;
   /// kJoint7: the commanded joints stay this far inside the iiwa's position limits (rad), >= 0.
   double joint_limit_margin = 0.05;
 

@@ -242,7 +242,8 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     out.valid = law.valid && status.all_finite && converged;
     out.X_WE_target = out.valid ? law.X_WE_target : X_WF;
     if (out.valid) {
-      out.insertion_limited = LimitAdvance(out.phase, base, &out.X_WE_target);
+      out.insertion_limited =
+          LimitAdvance(out.phase, base, out.p_WTip, out.p_WFinal, &out.X_WE_target);
       out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(),
                                          TiltPivot(out.X_WE_target), control_.max_needle_tilt,
                                          &out.X_WE_target);
@@ -268,8 +269,9 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     }
     if (out.valid) {
       Eigen::Isometry3d X = CalcFlangePose(q_target);
-      out.insertion_limited = control_.max_insertion_step > 0.0 &&
-                              LimitAdvance(out.phase, CalcFlangePose(base), &X);
+      out.insertion_limited =
+          (control_.max_insertion_step > 0.0 || control_.free_stretch_step > 0.0) &&
+          LimitAdvance(out.phase, CalcFlangePose(base), out.p_WTip, out.p_WFinal, &X);
       out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(), TiltPivot(X),
                                          control_.max_needle_tilt, &X);
       if (out.insertion_limited || out.tilt_limited) q_target = flange_ik_.Solve(X, q_target).q;
@@ -393,10 +395,26 @@ void SteeringController::UpdateLoadMap() {
 }
 
 bool SteeringController::LimitAdvance(InsertionPhase phase, const Eigen::Isometry3d& X_WF_base,
+                                      const Eigen::Vector3d& p_WTip,
+                                      const Eigen::Vector3d& p_WFinal,
                                       Eigen::Isometry3d* X_WF_target) const {
   if (phase != InsertionPhase::kInLiver) return false;
-  return LimitNeedleAdvance(needle_axis_F_, needle_p_FBase_, X_WF_base,
-                            control_.max_insertion_step, X_WF_target);
+  double bound = control_.max_insertion_step;
+  const auto stretch = sim_->CalcLiverTipStretch();
+  if (control_.free_stretch_step > 0.0 && stretch && stretch->free_reach > 0.0) {
+    // the last free stretch before the target: past it the tip reaches the target held, over
+    // more than a stretch's length, with no point seeded on the way
+    const Eigen::Vector3d z = (X_WF_base.linear() * needle_axis_F_).normalized();
+    const Eigen::Vector3d e = p_WFinal - p_WTip;
+    const double ahead = z.dot(e);
+    const bool last_free =
+        ahead - stretch->free_reach > stretch->free_length && ahead < stretch->next_seed;
+    if (last_free && (e - z * ahead).norm() > control_.free_stretch_tolerance)
+      bound =
+          bound > 0.0 ? std::min(bound, control_.free_stretch_step) : control_.free_stretch_step;
+  }
+  return bound > 0.0 &&
+         LimitNeedleAdvance(needle_axis_F_, needle_p_FBase_, X_WF_base, bound, X_WF_target);
 }
 
 Eigen::Vector3d SteeringController::TiltPivot(const Eigen::Isometry3d& X_WF) const {

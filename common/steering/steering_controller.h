@@ -94,7 +94,8 @@ struct SteeringOutput {
   double load_gain = 0.0;
   /// the target was turned back onto control.max_needle_tilt (common/control/needle_tilt.h)
   bool tilt_limited = false;
-  /// the target was moved back onto control.max_insertion_step (common/control/insertion_step.h)
+  /// the target was moved back onto control.max_insertion_step or, in the last free stretch
+  /// before the target, control.free_stretch_step (common/control/insertion_step.h)
   bool insertion_limited = false;
   Eigen::Vector3d p_WTip = Eigen::Vector3d::Zero();     ///< model tip (m)
   Eigen::Vector3d p_WTarget = Eigen::Vector3d::Zero();  ///< model's current path target (m)
@@ -168,8 +169,10 @@ class SteeringController {
   Eigen::Vector3d TiltPivot(const Eigen::Isometry3d& X_WF) const;
   /// Once the liver is punctured, moves *X_WF_target back so that the needle advances at most
   /// control.max_insertion_step from X_WF_base, the pose the step starts from (the measured one
-  /// plus the commands in flight); returns whether it did.
+  /// plus the commands in flight), and at most control.free_stretch_step in the last free
+  /// stretch before the final target p_WFinal (the model's tip p_WTip); returns whether it did.
   bool LimitAdvance(InsertionPhase phase, const Eigen::Isometry3d& X_WF_base,
+                    const Eigen::Vector3d& p_WTip, const Eigen::Vector3d& p_WFinal,
                     Eigen::Isometry3d* X_WF_target) const;
   /// q clamped into the iiwa's limits shrunk by control.joint_limit_margin.
   Vector7d ClampWithMargin(const Vector7d& q) const;

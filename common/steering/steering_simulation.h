@@ -197,6 +197,11 @@ class SteeringSimulation {
   /// Liver coupling state (phase, points) after the last step.
   const TissueCouplingState& liver_coupling() const { return coupling_state_.tissues[0]; }
   bool liver_punctured() const;
+  /// Where the model's tip is between its liver trajectory points after the last step
+  /// (NeedleTissueCoupling::CalcTipStretch); nullopt unless it is in the liver.
+  std::optional<NeedleTissueCoupling::TipStretch> CalcLiverTipStretch() const {
+    return coupling_->CalcTipStretch(0, coupling_state_);
+  }
   /// Current position of the liver entry point (first path point of the coupling); false
   /// before the liver is punctured.
   bool CalcLiverEntryPoint(Eigen::Vector3d* p_W) const;

@@ -266,6 +266,55 @@ TEST(NeedleTissueTest, TipHoldRampsInAfterASeededPoint) {
   EXPECT_LT(near_point, near_quarter);
 }
 
+// CalcTipStretch, against what the coupling does: none before the puncture; with tip_hold quarter
+// the tip's hold carries force under a sideways drift exactly in the steps that start with no
+// free reach left, a point is seeded in exactly the steps whose advance covers the next seed's
+// distance, and free_reach + 3 quarters = next_seed inside a stretch; with handover no free reach
+TEST(NeedleTissueTest, TheTipStretchTellsWhereTheHoldEngagesAndTheNextPointIsSeeded) {
+  constexpr double kAdvance = 0.3e-3;
+  const double spacing = MakeTissue().point_spacing;
+  for (TipHold hold : {TipHold::kQuarter, TipHold::kHandover}) {
+    TissueCouplingConfig tissue = MakeTissue();
+    tissue.tip_hold = hold;
+    Scene scene(tissue);
+    int free_steps = 0, held_steps = 0, seeds = 0;
+    for (int k = 0; k < 60; ++k) {
+      const std::optional<NeedleTissueCoupling::TipStretch> s =
+          scene.coupling->CalcTipStretch(0, scene.state);
+      const bool inside = scene.report().phase == TissuePhase::kInside;
+      EXPECT_EQ(s.has_value(), inside) << "step " << k;
+      const size_t points = scene.tissue().points.size();
+      const NeedleStepReport r = scene.Step(kAdvance, Eigen::Vector3d(2e-5, 0.0, 0.0));
+      ASSERT_TRUE(r.solve.converged);
+      if (!s || scene.tissue().tip.tet < 0) continue;
+      if (hold == TipHold::kHandover) {
+        EXPECT_EQ(s->free_reach, 0.0);
+        EXPECT_EQ(s->free_length, 0.0);
+        continue;
+      }
+      EXPECT_DOUBLE_EQ(s->free_length, 0.25 * spacing);
+      if (s->free_reach > 0.0) {
+        EXPECT_NEAR(s->free_reach + 0.75 * spacing, s->next_seed, 1e-12);
+        EXPECT_EQ(scene.report().tip_force, 0.0) << "free at step " << k;
+        ++free_steps;
+      } else {
+        EXPECT_GT(scene.report().tip_force, 0.0) << "held at step " << k;
+        ++held_steps;
+      }
+      const bool seeded = scene.tissue().points.size() > points;
+      seeds += seeded ? 1 : 0;
+      // the depth grows by about the advance (the block barely moves along the needle)
+      if (s->next_seed > kAdvance + 1e-5) EXPECT_FALSE(seeded) << "step " << k;
+      if (s->next_seed < kAdvance - 1e-5) EXPECT_TRUE(seeded) << "step " << k;
+    }
+    if (hold == TipHold::kQuarter) {
+      EXPECT_GE(free_steps, 5);
+      EXPECT_GE(held_steps, 5);
+      EXPECT_GE(seeds, 1);
+    }
+  }
+}
+
 // tip_hold handover: the tip is held at every depth past the entry (its force never drops to zero
 // under a sideways drift, where without it the hold is off for a quarter spacing after each
 // point), and the last seeded point is the one let go at its seed and ramped in: right after

@@ -269,6 +269,35 @@ TEST(InverseScenarioLoaderTest, ReadsTheInsertionStepBound) {
   }
 }
 
+// controller.free_stretch_step and free_stretch_tolerance: 0.2 mm a step and 0.1 mm in the
+// default scenario and without the keys, the values given (0 turns the bound off), and bad
+// values named by their key
+TEST(InverseScenarioLoaderTest, ReadsTheFreeStretchBound) {
+  const std::string keys = "  free_stretch_step: 0.0002\n  free_stretch_tolerance: 0.0001\n";
+  for (const std::string& text : {DefaultText(), Edited(DefaultText(), keys, "")}) {
+    const SteeringControlConfig c = Load(text).loop.control;
+    EXPECT_EQ(c.free_stretch_step, 0.0002);
+    EXPECT_EQ(c.free_stretch_tolerance, 0.0001);
+  }
+  const SteeringControlConfig off =
+      Load(
+          Edited(DefaultText(), keys, "  free_stretch_step: 0\n  free_stretch_tolerance: 0.0005\n"))
+          .loop.control;
+  EXPECT_EQ(off.free_stretch_step, 0.0);
+  EXPECT_EQ(off.free_stretch_tolerance, 0.0005);
+  for (const char* value : {"-0.001", "0.2", ".nan"}) {
+    const std::string bad =
+        LoadError(Edited(DefaultText(), keys, "  free_stretch_step: " + std::string(value) + "\n"));
+    EXPECT_NE(bad.find("controller.free_stretch_step"), std::string::npos) << value << ": " << bad;
+  }
+  for (const char* value : {"-0.001", ".inf", ".nan"}) {
+    const std::string bad = LoadError(
+        Edited(DefaultText(), keys, "  free_stretch_tolerance: " + std::string(value) + "\n"));
+    EXPECT_NE(bad.find("controller.free_stretch_tolerance"), std::string::npos)
+        << value << ": " << bad;
+  }
+}
+
 // controller.liver_alignment: the default scenario's auto, auto without the key, the three
 // choices, and a bad one named by its key
 TEST(InverseScenarioLoaderTest, ReadsTheLiverAlignment) {

@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <vector>
 
 #include "common/core/error.h"
 
@@ -293,6 +295,124 @@ TEST(SteeringControllerTest, TheInsertionBoundHoldsEveryCommandInTheTissue) {
                 1e3 * bounded.max_advance_outside, bounded.insertion_limited,
                 1e3 * bounded.final_error);
   }
+}
+
+// One 6-DoF insertion in the static liver with the target moved `offset` (m) along the path and
+// the free-stretch bound `bound` (m, 0: off): per step, the commanded needle advance from the
+// previous command, whether it was bounded, and the model's tip stretch after the step.
+struct StretchRun {
+  std::vector<Eigen::Isometry3d> commands;
+  std::vector<double> advance;
+  std::vector<bool> limited, in_liver;
+  std::vector<std::optional<NeedleTissueCoupling::TipStretch>> stretch;
+  double past_last_point = 0.0;  // the model's tip past its last point at the end (m)
+  double final_error = 0.0;      // the plant's tip to its target (m)
+  bool reached_end = false;
+};
+
+StretchRun RunStretchInsertion(double offset, double bound, double tolerance = 0.0) {
+  const TetMesh mesh = LoadLiver("liver_700");
+  SteeringPathConfig path = MakePathConfig();
+  path.target_W += offset * (path.target_W - path.entry_W).normalized();
+  const InverseModelConfig plant_config = MakeModelConfig(1.0);
+  const InverseModelConfig model_config = MakeModelConfig(1.1);
+  SteeringControlConfig control;
+  control.law.max_translation_step = 0.001;  // the scenarios' cap: a point is seeded <= 1 mm late
+  control.free_stretch_step = bound;
+  control.free_stretch_tolerance = tolerance;
+  const Eigen::Isometry3d X_WE0 =
+      SteeringSimulation::CalcStartFlangePose(plant_config.needle, path);
+  SteeringSimulation plant(plant_config, path, mesh, X_WE0);
+  SteeringController controller(model_config, path, control, mesh, X_WE0);
+  Eigen::Isometry3d X_WE = X_WE0;
+  StretchRun run;
+  for (int i = 0; i < 150; ++i) {
+    SteeringInput input;
+    input.p_WM = plant_config.markers_W;
+    input.X_WE = X_WE;
+    const SteeringOutput out = controller.Update(input);
+    EXPECT_TRUE(out.valid) << "step " << i;
+    run.advance.push_back(CalcNeedleAdvance(model_config.needle.axis_F, Eigen::Vector3d::Zero(),
+                                            X_WE, out.X_WE_target));
+    run.limited.push_back(out.insertion_limited);
+    run.in_liver.push_back(out.phase == InsertionPhase::kInLiver);
+    run.stretch.push_back(controller.simulation().CalcLiverTipStretch());
+    X_WE = out.X_WE_target;
+    run.commands.push_back(X_WE);
+    plant.Step(plant_config.markers_W, X_WE);
+    run.reached_end = out.reached_end;
+  }
+  const TissueCouplingState& model = controller.simulation().liver_coupling();
+  run.past_last_point = model.report.depth - model.last_seed_depth;
+  run.final_error =
+      (CalcTipPosition(plant.X_WN(), plant.needle().length()) - plant.CalcPathPositions().back())
+          .norm();
+  return run;
+}
+
+// controller.free_stretch_step: with the target about three quarters of a point spacing past the
+// last point (the tip reaches it held, over more than a free stretch), the advance is bounded in
+// the last free stretch and only there (the bounded steps all have free reach left; elsewhere in
+// the liver the needle advances faster than the bound), and the target is still reached. Not
+// bounded, every command the same as with the bound off to the last bit: a target just past a
+// free stretch (0.35 spacing past its point, like the default scenario's 0.27), and the far target
+// while its lateral error is within free_stretch_tolerance (1 m here; the static liver's is
+// well under the default 0.1 mm, so the other runs use 0)
+TEST(SteeringControllerTest, TheLastFreeStretchBeforeAHeldApproachIsSlowed) {
+  constexpr double kBound = 0.0005;
+  const double spacing = MakeModelConfig().point_spacing;
+  const StretchRun free = RunStretchInsertion(0.0, 0.0);
+  ASSERT_TRUE(free.reached_end);
+  auto same_commands = [](const StretchRun& a, const StretchRun& b) {
+    if (a.commands.size() != b.commands.size()) return false;
+    for (size_t i = 0; i < a.commands.size(); ++i)
+      if (a.commands[i].matrix() != b.commands[i].matrix()) return false;
+    return true;
+  };
+  // moves the target so that the model's tip ends `past` past its last point
+  auto offset_for = [&](double past) {
+    const double offset = std::fmod(past - free.past_last_point + 2.0 * spacing, spacing);
+    return offset > 0.5 * spacing ? offset - spacing : offset;
+  };
+  const double far = offset_for(0.75 * spacing);
+  const StretchRun slowed = RunStretchInsertion(far, kBound);
+  EXPECT_TRUE(slowed.reached_end);
+  EXPECT_LT(slowed.final_error, kFinalTolerance);
+  // the premise: the model's tip ends in the held part of its stretch, before the next point
+  ASSERT_GT(slowed.past_last_point, 0.5 * spacing);
+  ASSERT_LT(slowed.past_last_point, spacing);
+  int bounded = 0, faster = 0;
+  for (size_t i = 0; i < slowed.advance.size(); ++i) {
+    if (slowed.limited[i]) {
+      ++bounded;
+      EXPECT_LE(slowed.advance[i], kBound + 1e-12) << "step " << i;
+      ASSERT_TRUE(slowed.stretch[i].has_value()) << "step " << i;
+    }
+    if (slowed.in_liver[i] && slowed.advance[i] > kBound + 1e-9) ++faster;
+  }
+  EXPECT_GE(bounded, 3);
+  EXPECT_GE(faster, 3) << "only the last free stretch is bounded";
+  const StretchRun off = RunStretchInsertion(far, 0.0);
+  EXPECT_EQ(std::count(off.limited.begin(), off.limited.end(), true), 0);
+  EXPECT_TRUE(off.reached_end);
+  const StretchRun tolerated = RunStretchInsertion(far, kBound, 1.0);
+  EXPECT_EQ(std::count(tolerated.limited.begin(), tolerated.limited.end(), true), 0);
+  EXPECT_TRUE(same_commands(tolerated, off)) << "a lateral error within the tolerance";
+  std::printf(
+      "target %.2f mm moved, %.2f mm past its last point: %d steps bounded, %d faster in "
+      "the liver; final error %.4f mm (%.4f mm without the bound)\n",
+      1e3 * far, 1e3 * slowed.past_last_point, bounded, faster, 1e3 * slowed.final_error,
+      1e3 * off.final_error);
+
+  const double near = offset_for(0.35 * spacing);
+  const StretchRun near_on = RunStretchInsertion(near, kBound);
+  const StretchRun near_off = RunStretchInsertion(near, 0.0);
+  ASSERT_GT(near_off.past_last_point, 0.25 * spacing);  // the premise: just past a free stretch
+  ASSERT_LT(near_off.past_last_point, 0.5 * spacing);
+  EXPECT_EQ(std::count(near_on.limited.begin(), near_on.limited.end(), true), 0);
+  EXPECT_TRUE(same_commands(near_on, near_off));
+  EXPECT_TRUE(near_on.reached_end);
+  EXPECT_LT(near_on.final_error, kFinalTolerance);
 }
 
 // the coarse liver, the test path, and the model with a rigid and with a flexible needle
