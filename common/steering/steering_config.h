@@ -237,7 +237,9 @@ struct SteeringControlConfig {
   /// stretch, NeedleTissueCoupling::CalcTipStretch); beyond it the tip is held and only
   /// advances along its axis. While the model's tip is in a free stretch from which it would
   /// reach the final target held, over more than a stretch's length and with no point seeded
-  /// on the way, and the target is more than free_stretch_tolerance (m, >= 0) off the needle's
+  /// on the way (or one seeded within half a stretch's length before the target, whose hold
+  /// would tie the target's tissue to the needle line), and the target is more than
+  /// free_stretch_tolerance (m, >= 0) off the needle's
   /// axis, the needle's advance per step is bounded by free_stretch_step (m, >= 0; 0: off), so
   /// that the lateral error is corrected before the hold engages instead of being carried to
   /// the target (README "Where the target falls between the trajectory points"). A target at

@@ -403,12 +403,14 @@ bool SteeringController::LimitAdvance(InsertionPhase phase, const Eigen::Isometr
   const auto stretch = sim_->CalcLiverTipStretch();
   if (control_.free_stretch_step > 0.0 && stretch && stretch->free_reach > 0.0) {
     // the last free stretch before the target: past it the tip reaches the target held, over
-    // more than a stretch's length, with no point seeded on the way
+    // more than a stretch's length, with no point seeded on the way, or one seeded within half
+    // a stretch's length before the target (that point would tie the target's tissue to the
+    // needle line: the stretch it starts is too short to correct anything)
     const Eigen::Vector3d z = (X_WF_base.linear() * needle_axis_F_).normalized();
     const Eigen::Vector3d e = p_WFinal - p_WTip;
     const double ahead = z.dot(e);
-    const bool last_free =
-        ahead - stretch->free_reach > stretch->free_length && ahead < stretch->next_seed;
+    const bool last_free = ahead - stretch->free_reach > stretch->free_length &&
+                           ahead < stretch->next_seed + 0.5 * stretch->free_length;
     if (last_free && (e - z * ahead).norm() > control_.free_stretch_tolerance)
       bound =
           bound > 0.0 ? std::min(bound, control_.free_stretch_step) : control_.free_stretch_step;
