@@ -270,7 +270,6 @@ SteeringOutput SteeringController::Update(const SteeringInput& input) {
     if (out.valid) {
       Eigen::Isometry3d X = CalcFlangePose(q_target);
       out.insertion_limited =
-          (control_.max_insertion_step > 0.0 || control_.free_stretch_step > 0.0) &&
           LimitAdvance(out.phase, CalcFlangePose(base), out.p_WTip, out.p_WFinal, &X);
       out.tilt_limited = LimitNeedleTilt(needle_axis_F_, sim_->path_direction(), TiltPivot(X),
                                          control_.max_needle_tilt, &X);
@@ -400,8 +399,10 @@ bool SteeringController::LimitAdvance(InsertionPhase phase, const Eigen::Isometr
                                       Eigen::Isometry3d* X_WF_target) const {
   if (phase != InsertionPhase::kInLiver) return false;
   double bound = control_.max_insertion_step;
-  const auto stretch = sim_->CalcLiverTipStretch();
-  if (control_.free_stretch_step > 0.0 && stretch && stretch->free_reach > 0.0) {
+  const auto stretch = control_.free_stretch_step > 0.0
+                           ? sim_->CalcLiverTipStretch()
+                           : std::optional<NeedleTissueCoupling::TipStretch>();
+  if (stretch && stretch->free_reach > 0.0) {
     // the last free stretch before the target: past it the tip reaches the target held, over
     // more than a stretch's length, with no point seeded on the way, or one seeded within half
     // a stretch's length before the target (that point would tie the target's tissue to the
