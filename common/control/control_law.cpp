@@ -28,6 +28,16 @@ void CheckShapes(const Eigen::MatrixXd& J, int dof, const Eigen::VectorXd& e,
   }
 }
 
+// The law's step -J_r^+ k e with the configured Tikhonov pseudo-inverse of J
+Eigen::VectorXd CalcRegularizedStep(const Eigen::MatrixXd& J, const Eigen::VectorXd& e,
+                                    const Eigen::VectorXd& k, const ControlLawConfig& config) {
+  Eigen::MatrixXd J_r_plus;
+  CalcTikhonovPseudoInverse(J, config.regularization, &J_r_plus, config.tikhonov_form);
+  Eigen::VectorXd step;
+  CalcControlStep(J_r_plus, k, e, &step);
+  return step;
+}
+
 }  // namespace
 
 void ControlLawConfig::Validate() const {
@@ -64,11 +74,7 @@ CartesianControlOutput CalcCartesianTarget(const Eigen::Isometry3d& X_WE, const 
     out.valid = false;
     return out;
   }
-  Eigen::MatrixXd J_r_plus;
-  CalcTikhonovPseudoInverse(J, config.regularization, &J_r_plus, config.tikhonov_form);
-  Eigen::VectorXd step;
-  CalcControlStep(J_r_plus, k, e, &step);
-  Vector6d delta = step;
+  Vector6d delta = CalcRegularizedStep(J, e, k, config);
   // one common scale keeps the direction of the Newton step
   const double dp = delta.segment<3>(kLinear).norm();
   const double dtheta = delta.segment<3>(kAngular).norm();
@@ -97,11 +103,7 @@ JointControlOutput CalcJointTarget(const Vector7d& q, const Eigen::MatrixXd& J,
     out.valid = false;
     return out;
   }
-  Eigen::MatrixXd J_r_plus;
-  CalcTikhonovPseudoInverse(J, config.regularization, &J_r_plus, config.tikhonov_form);
-  Eigen::VectorXd step;
-  CalcControlStep(J_r_plus, k, e, &step);
-  Vector7d delta = step;
+  Vector7d delta = CalcRegularizedStep(J, e, k, config);
   if (!delta.allFinite()) {
     out.valid = false;
     return out;

@@ -26,6 +26,21 @@ SnapshotProbe MakeProbe(const TetMesh& mesh, const TetPoint& point) {
   return probe;
 }
 
+// what CatchUp and Step are given: one finite position per marker, a rigid flange pose
+void CheckMeasurements(const std::vector<Eigen::Vector3d>& p_WM, size_t num_markers,
+                       const Eigen::Isometry3d& X_WF) {
+  if (p_WM.size() != num_markers) {
+    throw InputError(
+        Str("inverse simulation: expected ", num_markers, " markers, got ", p_WM.size()));
+  }
+  for (const Eigen::Vector3d& p : p_WM) {
+    if (!p.allFinite()) throw InputError("inverse simulation: a marker position is not finite");
+  }
+  if (!IsRigidTransform(X_WF, 1e-6)) {
+    throw InputError("inverse simulation: the flange pose must be a finite rigid transform");
+  }
+}
+
 // rotation whose z axis is `z` (unit); x is the world x axis made orthogonal (y if too close)
 Eigen::Matrix3d FrameWithZ(const Eigen::Vector3d& z) {
   Eigen::Vector3d x = Eigen::Vector3d::UnitX();
@@ -225,16 +240,7 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
   const auto t0 = std::chrono::steady_clock::now();
   config.Validate();
   if (steps_ > 0) throw std::logic_error("SteeringSimulation::CatchUp after a Step");
-  if (p_WM.size() != markers_.size()) {
-    throw InputError(Str("inverse simulation: expected ", markers_.size(), " markers, got ",
-                         p_WM.size()));
-  }
-  for (const Eigen::Vector3d& p : p_WM) {
-    if (!p.allFinite()) throw InputError("inverse simulation: a marker position is not finite");
-  }
-  if (!IsRigidTransform(X_WF, 1e-6)) {
-    throw InputError("inverse simulation: the flange pose must be a finite rigid transform");
-  }
+  CheckMeasurements(p_WM, markers_.size(), X_WF);
   CatchUpReport report;
   const double length = needle_.length();
   const Eigen::Isometry3d X_WN = needle_.CalcNeedlePose(X_WF);
@@ -316,16 +322,7 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
 
 SteeringStepReport SteeringSimulation::Step(const std::vector<Eigen::Vector3d>& p_WM,
                                             const Eigen::Isometry3d& X_WF, double bevel_angle) {
-  if (p_WM.size() != markers_.size()) {
-    throw InputError(Str("inverse simulation: expected ", markers_.size(), " markers, got ",
-                         p_WM.size()));
-  }
-  for (const Eigen::Vector3d& p : p_WM) {
-    if (!p.allFinite()) throw InputError("inverse simulation: a marker position is not finite");
-  }
-  if (!IsRigidTransform(X_WF, 1e-6)) {
-    throw InputError("inverse simulation: the flange pose must be a finite rigid transform");
-  }
+  CheckMeasurements(p_WM, markers_.size(), X_WF);
   if (!std::isfinite(bevel_angle)) throw InputError("inverse simulation: bevel angle not finite");
   SteeringStepReport report;
   ApplyBevelLoad(bevel_angle);
