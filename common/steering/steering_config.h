@@ -239,12 +239,12 @@ struct SteeringControlConfig {
   /// reach the final target held, over more than a stretch's length and with no point seeded
   /// on the way (or one seeded within half a stretch's length before the target, whose hold
   /// would tie the target's tissue to the needle line), and the target is more than
-  /// free_stretch_tolerance (m, >= 0) off the needle's
-  /// axis, the needle's advance per step is bounded by free_stretch_step (m, >= 0; 0: off), so
-  /// that the lateral error is corrected before the hold engages instead of being carried to
-  /// the target (README "Where the target falls between the trajectory points"). A target at
-  /// most a stretch's length past the end of one (the default scenario's) is not affected.
-  /// (YAML controller.free_stretch_step, controller.free_stretch_tolerance)
+  /// free_stretch_tolerance (m, >= 0) off the needle's axis, the needle's advance per step is
+  /// bounded by free_stretch_step (m, >= 0; 0: off), so that the lateral error is corrected before
+  /// the hold engages instead of being carried to the target (README "Where the target falls
+  /// between the trajectory points"). A target at most a stretch's length past the end of one (the
+  /// default scenario's) is not affected. (YAML controller.free_stretch_step,
+  /// controller.free_stretch_tolerance)
   double free_stretch_step = 0.0002;
   double free_stretch_tolerance = 1e-4;
   /// kJoint7: the commanded joints stay this far inside the iiwa's position limits (rad), >= 0.

@@ -17,6 +17,10 @@
 namespace nsim {
 namespace {
 
+// a point seeded within this fraction of a free stretch's length before the final target ties
+// the target's tissue to the needle line: the stretch before it is the last free one
+constexpr double kSeedBeforeTargetMargin = 0.5;
+
 double Seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
 }
@@ -399,9 +403,8 @@ bool SteeringController::LimitAdvance(InsertionPhase phase, const Eigen::Isometr
                                       Eigen::Isometry3d* X_WF_target) const {
   if (phase != InsertionPhase::kInLiver) return false;
   double bound = control_.max_insertion_step;
-  const auto stretch = control_.free_stretch_step > 0.0
-                           ? sim_->CalcLiverTipStretch()
-                           : std::optional<NeedleTissueCoupling::TipStretch>();
+  std::optional<NeedleTissueCoupling::TipStretch> stretch;
+  if (control_.free_stretch_step > 0.0) stretch = sim_->CalcLiverTipStretch();
   if (stretch && stretch->free_reach > 0.0) {
     // the last free stretch before the target: past it the tip reaches the target held, over
     // more than a stretch's length, with no point seeded on the way, or one seeded within half
@@ -410,8 +413,9 @@ bool SteeringController::LimitAdvance(InsertionPhase phase, const Eigen::Isometr
     const Eigen::Vector3d z = (X_WF_base.linear() * needle_axis_F_).normalized();
     const Eigen::Vector3d e = p_WFinal - p_WTip;
     const double ahead = z.dot(e);
-    const bool last_free = ahead - stretch->free_reach > stretch->free_length &&
-                           ahead < stretch->next_seed + 0.5 * stretch->free_length;
+    const bool last_free =
+        ahead - stretch->free_reach > stretch->free_length &&
+        ahead < stretch->next_seed + kSeedBeforeTargetMargin * stretch->free_length;
     if (last_free && (e - z * ahead).norm() > control_.free_stretch_tolerance)
       bound =
           bound > 0.0 ? std::min(bound, control_.free_stretch_step) : control_.free_stretch_step;
