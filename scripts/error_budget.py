@@ -12,6 +12,21 @@
 Each share is the mean of its distance over the window's answered frames; the mean vector of
 the registration error (model - true, mm) shows its direction.
 
+Where the patient's timeseries has the robot's flange (robot_x/y/z, as direct_sim writes it),
+the needle's axis at each frame is taken as the direction from the flange to the tip (exact
+for a rigid needle whose tool offset lies on its axis, the default scenario's), and three more
+figures are printed:
+
+  axial / lateral  the registration error's mean component along the needle's axis (its
+                   absolute value) and across it, over the window
+  arrival          the first frame in the liver (phase 2) at which the true target is less
+                   than 0.3 mm ahead of the tip along the axis: its time and the true target's
+                   distance from the axis then (the lateral error the needle arrives with)
+  drift            how far the robot's mean flange position moves after the arrival: the mean
+                   over the window against the mean over the 4 s from the arrival (a breathing
+                   cycle, so the breathing's own motion averages out); a needle that drags the
+                   liver toward an error it cannot remove keeps moving
+
 A frame registered to predicted markers (inverse.csv's `predicted` 1) places the model's target
 where the true one will be at t + `horizon`: its registration error compares it with the true
 target of the frame at t + horizon (the nearest frame; frames whose t + horizon is past the run
@@ -62,7 +77,8 @@ def rows(path, keys, optional=()):
 
 def budget(direct_csv, inverse_csv):
     xyz = lambda p: [p + "_" + a for a in "xyz"]
-    truth = rows(direct_csv, ["t", "phase"] + xyz("target") + xyz("tip"))
+    truth = rows(direct_csv, ["t", "phase"] + xyz("target") + xyz("tip"),
+                 optional=xyz("robot"))
     model = rows(inverse_csv, ["sim_time", "valid"] + xyz("model_tip") + xyz("model_target"),
                  optional=("predicted", "horizon"))
     by_time = {round(r["t"], 9): r for r in truth}
@@ -75,8 +91,20 @@ def budget(direct_csv, inverse_csv):
         k = round((t - times[0]) / step)
         return truth[k] if 0 <= k < len(truth) else None
 
+    has_robot = all(k in truth[0] for k in xyz("robot"))
+
+    def axis(d):  # the needle's unit axis at a patient frame: flange -> tip
+        a = [d[k] - d[r] for k, r in zip(xyz("tip"), xyz("robot"))]
+        n = math.sqrt(sum(v * v for v in a))
+        return [v / n for v in a] if n > 0 else None
+
+    def split(v, n):  # |component along n|, component across n
+        along = sum(a * b for a, b in zip(v, n))
+        return abs(along), math.sqrt(max(0.0, sum(a * a for a in v) - along * along))
+
     start = 0.8 * truth[-1]["t"]
     final, registration, control, vector = [], [], [], [0.0, 0.0, 0.0]
+    axial, lateral = [], []
     # the first time the patient's needle is in the skin (phase >= 1) and in the liver (2)
     punctures = [next((r["t"] for r in truth if r["phase"] >= stage), None) for stage in (1, 2)]
     before = [None, None]  # registration error at the last answered frame before each
@@ -108,15 +136,54 @@ def budget(direct_csv, inverse_csv):
             registration.append(registered)
             for i in range(3):
                 vector[i] += 1e3 * (model_target[i] - target_then[i])
+            n = axis(ahead) if has_robot else None
+            if n is not None:
+                a, l = split([1e3 * (m_ - t_) for m_, t_ in zip(model_target, target_then)], n)
+                axial.append(a)
+                lateral.append(l)
     if not final or not registration:
         fail("%s and %s: no answered frame in the last 20 %% of the run" % (direct_csv, inverse_csv))
     n = len(registration)
     mean = lambda v: sum(v) / len(v)
-    return mean(final), mean(registration), mean(control), [v / n for v in vector], len(final), before
+    needle = None  # (axial, lateral, arrival time, lateral error then, drift), mm and s
+    if has_robot and axial:
+        arrival = None
+        for k, d in enumerate(truth):
+            n_ = axis(d)
+            if d["phase"] < 2 or n_ is None:
+                continue
+            e = [1e3 * (d[a] - d[b]) for a, b in zip(xyz("target"), xyz("tip"))]
+            if sum(a * b for a, b in zip(e, n_)) < ARRIVAL_AHEAD_MM:
+                arrival = (k, d["t"], split(e, n_)[1])
+                break
+        drift = None
+        if arrival is not None:
+            cycle = [d for d in truth[arrival[0]:] if d["t"] < arrival[1] + DRIFT_CYCLE_S]
+            window = [d for d in truth if d["t"] >= start]
+            if window and cycle and cycle[-1]["t"] < start:
+                centre = lambda ds: [mean([d[k] for d in ds]) for k in xyz("robot")]
+                drift = 1e3 * math.dist(centre(cycle), centre(window))
+        needle = (mean(axial), mean(lateral), arrival[1] if arrival else None,
+                  arrival[2] if arrival else None, drift)
+    return (mean(final), mean(registration), mean(control), [v / n for v in vector], len(final),
+            before, needle)
+
+
+ARRIVAL_AHEAD_MM = 0.3  # the target less than this ahead of the tip along the axis: arrived
+DRIFT_CYCLE_S = 4.0  # the mean flange position after the arrival: over a breathing cycle
 
 
 def mm(value):
     return "-" if value is None else "%.3f mm" % value
+
+
+def needle_text(needle):
+    if needle is None:
+        return ""
+    axial, lateral, when, off, drift = needle
+    return ("; registration axial %.3f mm, lateral %.3f mm; arrival %s, %s off the axis; "
+            "drift after it %s" % (axial, lateral, "-" if when is None else "%.2f s" % when,
+                                   mm(off), mm(drift)))
 
 
 def main(argv):
@@ -129,22 +196,29 @@ def main(argv):
             direct_dir, inverse_dir = arg.split(":", 1)
         else:
             direct_dir, inverse_dir = os.path.join(arg, "direct"), os.path.join(arg, "inverse")
-        f, r, c, v, n, before = budget(os.path.join(direct_dir, "timeseries.csv"),
-                                       os.path.join(inverse_dir, "inverse.csv"))
-        totals.append((f, r, c, before))
+        f, r, c, v, n, before, needle = budget(os.path.join(direct_dir, "timeseries.csv"),
+                                               os.path.join(inverse_dir, "inverse.csv"))
+        totals.append((f, r, c, before, needle))
         print("%s: final %.3f mm = registration %.3f mm (model - true: %+.3f %+.3f %+.3f mm), "
               "control %.3f mm; %d frames; registration before the skin's puncture %s, "
-              "before the liver's %s" % (arg, f, r, v[0], v[1], v[2], c, n, mm(before[0]),
-                                         mm(before[1])))
+              "before the liver's %s%s" % (arg, f, r, v[0], v[1], v[2], c, n, mm(before[0]),
+                                           mm(before[1]), needle_text(needle)))
     if len(totals) > 1:
         m = [sum(t[i] for t in totals) / len(totals) for i in range(3)]
         stage = []
         for i in range(2):  # each stage over the runs that reached it
             reached = [t[3][i] for t in totals if t[3][i] is not None]
             stage.append(mm(sum(reached) / len(reached) if reached else None))
+        needles = [t[4] for t in totals if t[4] is not None]
+        needle = None
+        if needles:  # each figure over the runs that have it
+            def over(i):
+                have = [x[i] for x in needles if x[i] is not None]
+                return sum(have) / len(have) if have else None
+            needle = tuple(over(i) for i in range(5))
         print("mean over %d runs: final %.3f mm, registration %.3f mm, control %.3f mm; "
-              "registration before the skin's puncture %s, before the liver's %s"
-              % (len(totals), m[0], m[1], m[2], stage[0], stage[1]))
+              "registration before the skin's puncture %s, before the liver's %s%s"
+              % (len(totals), m[0], m[1], m[2], stage[0], stage[1], needle_text(needle)))
     return 0
 
 

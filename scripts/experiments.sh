@@ -281,8 +281,9 @@ collect_batch() {  # collect_batch DIR
             printf "%-16s %5d %26s %26s %8d of %2d %+9.1f%%\n", k, c, fe, fa, better, c, (soff > 0 ? 100 * (son - soff) / soff : 0) } }' \
     "$dir/runs.csv" >> "$dir/table.txt"
   # the final error split into the model's registration error and the control residual, and
-  # the registration error before the skin's and the liver's punctures (scripts/error_budget.py),
-  # per setting, over the runs that completed
+  # the registration error before the skin's and the liver's punctures, along and across the
+  # needle, the lateral error the needle arrives with and the robot's drift after it
+  # (scripts/error_budget.py), per setting, over the runs that completed
   if [ -x /usr/bin/python3 ]; then
     local budget_lines="" runs_ok
     while read -r n; do
@@ -293,7 +294,7 @@ collect_batch() {  # collect_batch DIR
       [ ${#runs_ok[@]} -gt 0 ] || continue
       budget_lines+="$(printf '%-16s ' "$n")$(/usr/bin/python3 "$root/scripts/error_budget.py" "${runs_ok[@]}" 2>/dev/null | tail -n 1)"$'\n'
     done < <(cut -f1 "$dir/jobs.txt" | awk '!seen[$0]++')
-    [ -z "$budget_lines" ] || printf '\nerror budget (scripts/error_budget.py: shares over the last 20 %% of each run; registration before each puncture):\n%s' "$budget_lines" >> "$dir/table.txt"
+    [ -z "$budget_lines" ] || printf '\nerror budget (scripts/error_budget.py: shares over the last 20 %% of each run; registration before each puncture; along and across the needle; the arrival and the drift after it):\n%s' "$budget_lines" >> "$dir/table.txt"
   fi
   echo; cat "$dir/table.txt"
 

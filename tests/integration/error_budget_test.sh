@@ -4,8 +4,9 @@
 # amount that changes at the skin's and the liver's punctures, the model's tip on the true tip.
 # A third run is registered to predicted markers (compared at t + horizon). Checks the window's
 # shares, the registration before each puncture, the mean over runs (a run
-# that never reaches the liver is left out of that stage's mean), and bad input (exit 2 naming
-# the file and the column).
+# that never reaches the liver is left out of that stage's mean), the needle's figures of a run
+# with the robot's flange (the registration along and across the axis, the arrival, the drift),
+# and bad input (exit 2 naming the file and the column).
 # Usage: error_budget_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: error_budget_test.sh SOURCE_DIR}"
@@ -78,6 +79,43 @@ line_c="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/c")" || fail "p
 echo "$line_c"
 [[ "$line_c" == *"final 0.300 mm = registration 0.000 mm (model - true: +0.000 +0.000 +0.000 mm), control 0.300 mm; 101 frames"* ]] \
   || fail "predicted run: $line_c"
+
+# a run with the robot's flange: the needle's axis from the flange to the tip is -z; the tip
+# reaches the target's depth (less than 0.3 mm ahead) first at t = 2.72 s, 0.2 mm off the axis
+# in x; the model's target is 0.3 mm off the true one in x (across the axis) and 0.4 mm in z
+# (along it); from 7 s on, the flange and the tip stand 1 mm further in y: the mean flange
+# position over the last 20 % (8-10 s) is 1 mm from that over the 4 s after the arrival
+mkdir -p "$work/d/direct" "$work/d/inverse"
+/usr/bin/python3 - "$work/d" <<'PY'
+import sys
+d = sys.argv[1]
+with open(d + "/direct/timeseries.csv", "w") as f, open(d + "/inverse/inverse.csv", "w") as g:
+    f.write("t,phase,target_x,target_y,target_z,tip_x,tip_y,tip_z,robot_x,robot_y,robot_z\n")
+    g.write("answers_seq,sim_time,valid,model_tip_x,model_tip_y,model_tip_z,"
+            "model_target_x,model_target_y,model_target_z\n")
+    for k in range(1, 501):
+        t = round(0.02 * k, 2)
+        phase = 2 if t >= 1 else 1 if t >= 0.5 else 0
+        tip = (0.0102, 0.021 if t >= 7 else 0.02, 0.03 + max(0.0, 2.01 - (t - 1)) * 1e-3)
+        f.write("%.2f,%d,0.01,0.02,0.03,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f\n"
+                % ((t, phase) + tip + (tip[0], tip[1], tip[2] + 0.13)))
+        g.write("%d,%.2f,1,%.9f,%.9f,%.9f,0.0103,0.02,0.0304\n" % ((k, t) + tip))
+PY
+line_d="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/d")" || fail "run with the flange: exit $?"
+echo "$line_d"
+[[ "$line_d" == *"final 1.020 mm = registration 0.500 mm"* && "$line_d" == *"; registration axial 0.400 mm, lateral 0.300 mm; arrival 2.72 s, 0.200 mm off the axis; drift after it 1.000 mm" ]] \
+  || fail "run with the flange: $line_d"
+# the same run cut at 6 s: its window (4.8-6 s) overlaps the 4 s after the arrival, no drift
+/usr/bin/python3 - "$work/d" <<'PY'
+import sys
+for name in ("/direct/timeseries.csv", "/inverse/inverse.csv"):
+    path = sys.argv[1] + name
+    lines = open(path).read().splitlines()
+    keep = [lines[0]] + [l for l in lines[1:] if float(l.split(",")[0 if "direct" in name else 1]) <= 6.0]
+    open(path, "w").write("\n".join(keep) + "\n")
+PY
+line_e="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/d")" || fail "short run: exit $?"
+[[ "$line_e" == *"arrival 2.72 s, 0.200 mm off the axis; drift after it -" ]] || fail "short run: $line_e"
 
 # bad input: a missing phase column, a missing file
 sed -i '1s/phase/stage/' "$work/b/direct/timeseries.csv"
