@@ -24,8 +24,9 @@ figures are printed:
                    distance from the axis then (the lateral error the needle arrives with)
   drift            how far the robot's mean flange position moves after the arrival: the mean
                    over the window against the mean over the 4 s from the arrival (a breathing
-                   cycle, so the breathing's own motion averages out); a needle that drags the
-                   liver toward an error it cannot remove keeps moving
+                   cycle, so the breathing's own motion averages out; "-" when the two
+                   overlap); a needle that drags the liver toward an error it cannot remove
+                   keeps moving
 
 A frame registered to predicted markers (inverse.csv's `predicted` 1) places the model's target
 where the true one will be at t + `horizon`: its registration error compares it with the true
