@@ -32,6 +32,12 @@ constexpr double kOutsideForSure = 1e-6;
 // need to be distinct within one body)
 constexpr std::uint64_t kTipPointKey = std::uint64_t{1} << 61;
 
+// the tip's distance past the last seeded point at the step's start, as tip_hold_measure says
+double PastSeed(const TissueCouplingConfig& cfg, const TissueCouplingState& ts) {
+  return cfg.tip_hold_measure == TipHoldMeasure::kLastPoint ? ts.report.past_last_point
+                                                            : ts.report.depth - ts.last_seed_depth;
+}
+
 Eigen::Vector3d PolylinePoint(const Eigen::Matrix3Xd& X, double u) {
   const int n = static_cast<int>(X.cols());
   const int k = std::clamp(static_cast<int>(std::floor(u)), 0, n - 2);
@@ -93,6 +99,11 @@ const char* ToString(TissuePhase phase) {
 
 const std::vector<std::string>& TipHoldNames() {
   static const std::vector<std::string> names = {"quarter", "ramp", "handover"};
+  return names;
+}
+
+const std::vector<std::string>& TipHoldMeasureNames() {
+  static const std::vector<std::string> names = {"depth", "last_point"};
   return names;
 }
 
@@ -359,7 +370,7 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     const bool friction = cfg.friction_coefficient > 0.0 || cfg.friction_force_per_length > 0.0;
     // the tip's distance past the last seeded point sets how much of a hold the tip gets (or,
     // with tip_hold handover, that point): from nothing at the seed to rigid a quarter spacing past
-    const double past_seed = ts.report.depth - ts.last_seed_depth;
+    const double past_seed = PastSeed(cfg, ts);
     const double full_hold = kTipSkipFraction * cfg.point_spacing;
     const double first_hold = kTipRampStart * full_hold;
     const bool tip_held = ts.phase == TissuePhase::kInside && cfg.tip_constraint && ts.tip.tet >= 0;
@@ -414,10 +425,11 @@ std::optional<NeedleTissueCoupling::TipStretch> NeedleTissueCoupling::CalcTipStr
   const TissueCouplingConfig& cfg = config_.tissues[t];
   const TissueCouplingState& ts = state.tissues[t];
   if (ts.phase != TissuePhase::kInside) return std::nullopt;
-  // as AddConstraints measures it: the depth past the last seed at the step's start
-  const double past_seed = ts.report.depth - ts.last_seed_depth;
+  // as AddConstraints measures it: past the last seed at the step's start; the next seed
+  // comes with the depth
+  const double past_seed = PastSeed(cfg, ts);
   TipStretch s;
-  s.next_seed = std::max(0.0, cfg.point_spacing - past_seed);
+  s.next_seed = std::max(0.0, cfg.point_spacing - (ts.report.depth - ts.last_seed_depth));
   if (cfg.tip_constraint && cfg.tip_hold != TipHold::kHandover) {
     s.free_length = kTipSkipFraction * cfg.point_spacing;
     s.free_reach = std::max(0.0, s.free_length - past_seed);
@@ -558,6 +570,9 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
             ts.points.push_back(p);
             ts.last_seed_depth = r.depth;
           }
+          const Eigen::Vector3d x_last = EvalTetPoint(mesh.tets, x, ts.points.back().point);
+          r.past_last_point =
+              (n - 1 - ProjectOnPolyline(needle.end, x_last)) * needle.segment_length;
         } else if (r.depth <= kRetractionSlack * cfg.point_spacing) {
           // the tip is still at the entry (just punctured, or backing out): not held
           ts.tip = TetPoint{};
@@ -587,6 +602,7 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
     r.puncture_time = ts.puncture_time;
     r.num_points = static_cast<int>(ts.points.size());
     if (!r.punctured) r.depth = 0.0;
+    if (ts.phase != TissuePhase::kInside || ts.tip.tet < 0) r.past_last_point = 0.0;
   }
 }
 

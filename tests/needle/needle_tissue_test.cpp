@@ -315,6 +315,57 @@ TEST(NeedleTissueTest, TheTipStretchTellsWhereTheHoldEngagesAndTheNextPointIsSee
   }
 }
 
+// tip_hold_measure last_point: the tip's distance past the last seeded point is the arc length
+// from that point's projection on the needle to the tip (checked against the axial component of
+// tip - point, the rigid needle's axis); the hold engages exactly in the steps that start a
+// quarter spacing or more past the point by that measure, and CalcTipStretch's free reach is the
+// rest of the quarter by it. With friction the needle drags the tissue, so the two measures differ
+TEST(NeedleTissueTest, TheTipHoldCanMeasureFromTheLastPoint) {
+  const double quarter = 0.25 * MakeTissue().point_spacing;
+  TissueCouplingConfig tissue = MakeTissue();
+  tissue.tip_hold_measure = TipHoldMeasure::kLastPoint;
+  tissue.friction_coefficient = 0.3;
+  tissue.friction_force_per_length = 20.0;
+  Scene scene(tissue);
+  int free_steps = 0, held_steps = 0;
+  double largest_difference = 0.0;
+  for (int k = 0; k < 60; ++k) {
+    const TissueCouplingState& ts = scene.tissue();
+    const bool inside = scene.report().phase == TissuePhase::kInside && ts.tip.tet >= 0;
+    const double past = scene.report().past_last_point;
+    const std::optional<NeedleTissueCoupling::TipStretch> s =
+        scene.coupling->CalcTipStretch(0, scene.state);
+    const NeedleStepReport r = scene.Step(0.3e-3, Eigen::Vector3d(2e-5, 0.0, 0.0));
+    ASSERT_TRUE(r.solve.converged);
+    if (inside) {
+      ASSERT_TRUE(s.has_value());
+      EXPECT_NEAR(s->free_reach, std::max(0.0, quarter - past), 1e-15) << "step " << k;
+      if (past >= quarter) {
+        EXPECT_GT(scene.report().tip_force, 0.0) << "held at step " << k << ", past " << past;
+        ++held_steps;
+      } else {
+        EXPECT_EQ(scene.report().tip_force, 0.0) << "free at step " << k << ", past " << past;
+        ++free_steps;
+      }
+    }
+    if (scene.report().phase != TissuePhase::kInside || scene.tissue().tip.tet < 0) {
+      EXPECT_EQ(scene.report().past_last_point, 0.0);
+      continue;
+    }
+    const Eigen::Vector3d x_last =
+        EvalTetPoint(scene.block.mesh, scene.block.state->x, scene.tissue().points.back().point);
+    const Eigen::Vector3d z = scene.needle.X_WN_start.linear().col(2);
+    EXPECT_NEAR(scene.report().past_last_point, z.dot(scene.tip() - x_last), 1e-12) << "step " << k;
+    largest_difference = std::max(
+        largest_difference, std::abs(scene.report().past_last_point -
+                                     (scene.report().depth - scene.tissue().last_seed_depth)));
+  }
+  std::printf("past the last point by the two measures: up to %.3g m apart\n", largest_difference);
+  EXPECT_GE(free_steps, 5);
+  EXPECT_GE(held_steps, 5);
+  EXPECT_GT(largest_difference, 1e-6);
+}
+
 // tip_hold handover: the tip is held at every depth past the entry (its force never drops to zero
 // under a sideways drift, where without it the hold is off for a quarter spacing after each
 // point), and the last seeded point is the one let go at its seed and ramped in: right after
