@@ -35,8 +35,8 @@ TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::strin
 
 void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
   node.CheckKeys({"puncture_force", "friction_coefficient", "friction_force_per_length",
-                  "point_spacing", "tip_constraint", "tip_hold", "tip_hold_measure",
-                  "contact_margin", "lateral_compliance", "tip_compliance"});
+                  "point_spacing", "tip_constraint", "tip_hold", "seed_distance", "contact_margin",
+                  "lateral_compliance", "tip_compliance"});
   node.Read("puncture_force", &t->puncture_force);
   node.Read("friction_coefficient", &t->friction_coefficient);
   node.Read("friction_force_per_length", &t->friction_force_per_length);
@@ -44,8 +44,8 @@ void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
   node.Read("tip_constraint", &t->tip_constraint);
   const int tip_hold = node.ReadChoice("tip_hold", TipHoldNames());
   if (tip_hold >= 0) t->tip_hold = static_cast<TipHold>(tip_hold);
-  const int measure = node.ReadChoice("tip_hold_measure", TipHoldMeasureNames());
-  if (measure >= 0) t->tip_hold_measure = static_cast<TipHoldMeasure>(measure);
+  const int measure = node.ReadChoice("seed_distance", SeedDistanceNames());
+  if (measure >= 0) t->seed_distance = static_cast<SeedDistance>(measure);
   node.Read("contact_margin", &t->contact_margin);
   node.Read("lateral_compliance", &t->lateral_compliance);
   node.Read("tip_compliance", &t->tip_compliance);

@@ -133,7 +133,7 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
                  InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
   inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "tip_hold", "tip_hold_measure", "lateral_compliance",
+                 "tip_constraint", "tip_hold", "seed_distance", "lateral_compliance",
                  "tip_compliance", "jacobian_friction", "constraint_compliance",
                  "friction_coefficient", "anchors", "bevel", "needle"});
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
@@ -148,8 +148,8 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
   inv.Read("tip_constraint", &s->loop.model.tip_constraint);
   const int tip_hold = inv.ReadChoice("tip_hold", TipHoldNames());
   if (tip_hold >= 0) s->loop.model.tip_hold = static_cast<TipHold>(tip_hold);
-  const int measure = inv.ReadChoice("tip_hold_measure", TipHoldMeasureNames());
-  if (measure >= 0) s->loop.model.tip_hold_measure = static_cast<TipHoldMeasure>(measure);
+  const int measure = inv.ReadChoice("seed_distance", SeedDistanceNames());
+  if (measure >= 0) s->loop.model.seed_distance = static_cast<SeedDistance>(measure);
   inv.Read("lateral_compliance", &s->loop.model.lateral_compliance);
   inv.Read("tip_compliance", &s->loop.model.tip_compliance);
   const int jacobian_friction = inv.ReadChoice("jacobian_friction", {"held", "solved"});

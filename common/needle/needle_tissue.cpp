@@ -32,10 +32,10 @@ constexpr double kOutsideForSure = 1e-6;
 // need to be distinct within one body)
 constexpr std::uint64_t kTipPointKey = std::uint64_t{1} << 61;
 
-// the tip's distance past the last seeded point at the step's start, as tip_hold_measure says
+// the tip's distance past the last seeded point at the step's start, as seed_distance says
 double PastSeed(const TissueCouplingConfig& cfg, const TissueCouplingState& ts) {
-  return cfg.tip_hold_measure == TipHoldMeasure::kLastPoint ? ts.report.past_last_point
-                                                            : ts.report.depth - ts.last_seed_depth;
+  return cfg.seed_distance == SeedDistance::kLastPoint ? ts.report.past_last_point
+                                                       : ts.report.depth - ts.last_seed_depth;
 }
 
 Eigen::Vector3d PolylinePoint(const Eigen::Matrix3Xd& X, double u) {
@@ -102,7 +102,7 @@ const std::vector<std::string>& TipHoldNames() {
   return names;
 }
 
-const std::vector<std::string>& TipHoldMeasureNames() {
+const std::vector<std::string>& SeedDistanceNames() {
   static const std::vector<std::string> names = {"depth", "last_point"};
   return names;
 }
@@ -425,11 +425,10 @@ std::optional<NeedleTissueCoupling::TipStretch> NeedleTissueCoupling::CalcTipStr
   const TissueCouplingConfig& cfg = config_.tissues[t];
   const TissueCouplingState& ts = state.tissues[t];
   if (ts.phase != TissuePhase::kInside) return std::nullopt;
-  // as AddConstraints measures it: past the last seed at the step's start; the next seed
-  // comes with the depth
+  // as AddConstraints and Update measure it: past the last seed at the step's start
   const double past_seed = PastSeed(cfg, ts);
   TipStretch s;
-  s.next_seed = std::max(0.0, cfg.point_spacing - (ts.report.depth - ts.last_seed_depth));
+  s.next_seed = std::max(0.0, cfg.point_spacing - past_seed);
   if (cfg.tip_constraint && cfg.tip_hold != TipHold::kHandover) {
     s.free_length = kTipSkipFraction * cfg.point_spacing;
     s.free_reach = std::max(0.0, s.free_length - past_seed);
@@ -561,7 +560,12 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
         if (at_tip.tet >= 0) {
           ts.tip = at_tip;
           if (state.tip_tissue < 0) state.tip_tissue = t;
-          if (r.depth - ts.last_seed_depth >= cfg.point_spacing) {
+          const auto past_last_point = [&] {
+            const Eigen::Vector3d x_last = EvalTetPoint(mesh.tets, x, ts.points.back().point);
+            return (n - 1 - ProjectOnPolyline(needle.end, x_last)) * needle.segment_length;
+          };
+          r.past_last_point = past_last_point();
+          if (PastSeed(cfg, ts) >= cfg.point_spacing) {
             NeedlePathPoint p;
             p.kind = NeedlePathPoint::Kind::kTrajectory;
             p.point = at_tip;
@@ -569,10 +573,8 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
             p.seed_depth = r.depth;
             ts.points.push_back(p);
             ts.last_seed_depth = r.depth;
+            r.past_last_point = past_last_point();
           }
-          const Eigen::Vector3d x_last = EvalTetPoint(mesh.tets, x, ts.points.back().point);
-          r.past_last_point =
-              (n - 1 - ProjectOnPolyline(needle.end, x_last)) * needle.segment_length;
         } else if (r.depth <= kRetractionSlack * cfg.point_spacing) {
           // the tip is still at the entry (just punctured, or backing out): not held
           ts.tip = TetPoint{};

@@ -42,11 +42,12 @@
 //    spacing (its hold grows from nothing to rigid as the tip leaves it), so the tissue at the
 //    tip, where a target is approached, is never let go when the tip's depth crosses a
 //    threshold (the tissue sliding back along the needle).
-//    How far the tip is past the last point (tip_hold_measure): by default the depth grown
-//    since the seed, which also changes when the tissue at the entry slides along the needle
-//    (a frictionless liver does, with the breathing); with `last_point`, the tip's arc-length
-//    distance from that point's projection on the needle, which follows the tissue near the
-//    tip only. The next point is seeded by the depth either way.
+//    How far the tip is past the last point, for its hold and for seeding the next point
+//    (seed_distance): by default the depth grown since the seed, which also changes when the
+//    tissue at the entry slides along the needle (a frictionless liver does, with the
+//    breathing); with `last_point`, the tip's arc-length distance from that point's projection
+//    on the needle, which follows the tissue near the tip only: consecutive points are then a
+//    spacing apart in the tissue whatever the entry does.
 //    lateral_compliance and tip_compliance (m/N, 0 by default) put a spring in series with
 //    the lateral rows of the trajectory points and of the tip (ConstraintRow::compliance): the
 //    held material point then lags the needle by that compliance times its lateral force (the
@@ -94,13 +95,14 @@ enum class TipHold { kQuarter, kRamp, kHandover };
 /// The YAML names of TipHold, in its order: quarter, ramp, handover.
 const std::vector<std::string>& TipHoldNames();
 
-/// How far the tip is past the last seeded point, for its hold (see the file comment): the
-/// depth grown since the seed (kDepth: the arc length from the entry point, which moves when
-/// the tissue at the entry slides along the needle), or the tip's arc-length distance from that
-/// point's projection on the needle (kLastPoint: what the tissue near the tip does).
-enum class TipHoldMeasure { kDepth, kLastPoint };
-/// The YAML names of TipHoldMeasure, in its order: depth, last_point.
-const std::vector<std::string>& TipHoldMeasureNames();
+/// How far the tip is past the last seeded point, for its hold and for the next seed (see the
+/// file comment): the depth grown since the seed (kDepth: the arc length from the entry point,
+/// which moves when the tissue at the entry slides along the needle), or the tip's arc-length
+/// distance from that point's projection on the needle (kLastPoint: what the tissue near the
+/// tip does).
+enum class SeedDistance { kDepth, kLastPoint };
+/// The YAML names of SeedDistance, in its order: depth, last_point.
+const std::vector<std::string>& SeedDistanceNames();
 
 /// Needle-tissue interaction parameters of one tissue body.
 struct TissueCouplingConfig {
@@ -118,8 +120,9 @@ struct TissueCouplingConfig {
   bool tip_constraint = true;
   /// How the tip's hold meets the last seeded point's (see the file comment; YAML tip_hold).
   TipHold tip_hold = TipHold::kQuarter;
-  /// What the tip's distance past the last seeded point is measured by (YAML tip_hold_measure).
-  TipHoldMeasure tip_hold_measure = TipHoldMeasure::kDepth;
+  /// What the tip's distance past the last seeded point, for its hold and the next seed, is
+  /// measured by (YAML seed_distance).
+  SeedDistance seed_distance = SeedDistance::kDepth;
   /// Compliance of the tissue around the needle that the mesh does not resolve (m/N), >= 0:
   /// added in series to each lateral row of the trajectory points (ConstraintRow::compliance).
   /// 0: the material point is held rigidly (the default).
@@ -192,7 +195,7 @@ struct TissueCouplingReport {
   double puncture_time = std::numeric_limits<double>::quiet_NaN();  ///< (s)
   double depth = 0.0;        ///< needle length inside the tissue (m)
   /// The tip's arc-length distance past the last seeded point's projection on the needle (m),
-  /// kInside; what tip_hold_measure last_point holds the tip by.
+  /// kInside; what seed_distance last_point holds the tip and seeds the next point by.
   double past_last_point = 0.0;
   int num_points = 0;        ///< entry + trajectory + exit points
   double contact_force = 0.0;        ///< contact multiplier (N), kContact

@@ -71,9 +71,9 @@ struct InverseModelConfig {
   bool tip_constraint = true;
   /// Where the tip is held after each trajectory point (TissueCouplingConfig::tip_hold).
   TipHold tip_hold = TipHold::kQuarter;
-  /// What the tip's hold measures its distance past the last point by
-  /// (TissueCouplingConfig::tip_hold_measure; YAML inverse.tip_hold_measure).
-  TipHoldMeasure tip_hold_measure = TipHoldMeasure::kDepth;
+  /// What the tip's distance past the last point is measured by, for its hold and the next
+  /// seed (TissueCouplingConfig::seed_distance; YAML inverse.seed_distance).
+  SeedDistance seed_distance = SeedDistance::kDepth;
   /// Series compliance of the lateral needle rows in the model liver (m/N), >= 0
   /// (TissueCouplingConfig::lateral_compliance; YAML inverse.lateral_compliance).
   double lateral_compliance = 0.0;

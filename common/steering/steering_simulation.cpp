@@ -110,7 +110,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
   liver.point_spacing = config.point_spacing;
   liver.tip_constraint = config.tip_constraint;
   liver.tip_hold = config.tip_hold;
-  liver.tip_hold_measure = config.tip_hold_measure;
+  liver.seed_distance = config.seed_distance;
   liver.lateral_compliance = config.lateral_compliance;
   liver.tip_compliance = config.tip_compliance;
   coupling.tissues = {liver};

@@ -315,19 +315,20 @@ TEST(NeedleTissueTest, TheTipStretchTellsWhereTheHoldEngagesAndTheNextPointIsSee
   }
 }
 
-// tip_hold_measure last_point: the tip's distance past the last seeded point is the arc length
+// seed_distance last_point: the tip's distance past the last seeded point is the arc length
 // from that point's projection on the needle to the tip (checked against the axial component of
 // tip - point, the rigid needle's axis); the hold engages exactly in the steps that start a
-// quarter spacing or more past the point by that measure, and CalcTipStretch's free reach is the
-// rest of the quarter by it. With friction the needle drags the tissue, so the two measures differ
-TEST(NeedleTissueTest, TheTipHoldCanMeasureFromTheLastPoint) {
-  const double quarter = 0.25 * MakeTissue().point_spacing;
+// quarter spacing or more past the point by that measure, the next point is seeded exactly in the
+// steps that end a spacing past it, and CalcTipStretch's free reach and next seed follow it. With
+// friction the needle drags the tissue, so the measure differs from the depth's
+TEST(NeedleTissueTest, TheHoldAndTheSeedsCanMeasureFromTheLastPoint) {
+  const double spacing = MakeTissue().point_spacing, quarter = 0.25 * spacing;
   TissueCouplingConfig tissue = MakeTissue();
-  tissue.tip_hold_measure = TipHoldMeasure::kLastPoint;
+  tissue.seed_distance = SeedDistance::kLastPoint;
   tissue.friction_coefficient = 0.3;
-  tissue.friction_force_per_length = 20.0;
+  tissue.friction_force_per_length = 60.0;
   Scene scene(tissue);
-  int free_steps = 0, held_steps = 0;
+  int free_steps = 0, held_steps = 0, seeds = 0;
   double largest_difference = 0.0;
   for (int k = 0; k < 60; ++k) {
     const TissueCouplingState& ts = scene.tissue();
@@ -335,11 +336,23 @@ TEST(NeedleTissueTest, TheTipHoldCanMeasureFromTheLastPoint) {
     const double past = scene.report().past_last_point;
     const std::optional<NeedleTissueCoupling::TipStretch> s =
         scene.coupling->CalcTipStretch(0, scene.state);
+    const size_t points = ts.points.size();
+    const TetPoint last = points > 0 ? ts.points.back().point : TetPoint{};
     const NeedleStepReport r = scene.Step(0.3e-3, Eigen::Vector3d(2e-5, 0.0, 0.0));
     ASSERT_TRUE(r.solve.converged);
     if (inside) {
       ASSERT_TRUE(s.has_value());
       EXPECT_NEAR(s->free_reach, std::max(0.0, quarter - past), 1e-15) << "step " << k;
+      EXPECT_NEAR(s->next_seed, std::max(0.0, spacing - past), 1e-15) << "step " << k;
+      // the next point is seeded when the tip is a spacing past the last one, by this measure
+      if (scene.tissue().tip.tet >= 0) {
+        const Eigen::Vector3d x_last = EvalTetPoint(scene.block.mesh, scene.block.state->x, last);
+        const double past_end = scene.needle.X_WN_start.linear().col(2).dot(scene.tip() - x_last);
+        const bool seeded = scene.tissue().points.size() > points;
+        if (past_end > spacing + 1e-9) EXPECT_TRUE(seeded) << "step " << k;
+        if (past_end < spacing - 1e-9) EXPECT_FALSE(seeded) << "step " << k;
+        seeds += seeded ? 1 : 0;
+      }
       if (past >= quarter) {
         EXPECT_GT(scene.report().tip_force, 0.0) << "held at step " << k << ", past " << past;
         ++held_steps;
@@ -363,6 +376,7 @@ TEST(NeedleTissueTest, TheTipHoldCanMeasureFromTheLastPoint) {
   std::printf("past the last point by the two measures: up to %.3g m apart\n", largest_difference);
   EXPECT_GE(free_steps, 5);
   EXPECT_GE(held_steps, 5);
+  EXPECT_GE(seeds, 2);
   EXPECT_GT(largest_difference, 1e-6);
 }
 

@@ -124,18 +124,18 @@ TEST(ScenarioLoaderTest, TipHoldChoices) {
   EXPECT_EQ(LoadError(Edited(liver, liver + "tip_hold: always, ")),
             "scenario.yaml: needle.liver.tip_hold: expected one of quarter, ramp, handover, got "
             "'always'");
-  // needle.<tissue>.tip_hold_measure: depth (the default) or last_point; anything else is named
+  // needle.<tissue>.seed_distance: depth (the default) or last_point; anything else is named
   const auto liver_measure = [](const std::string& text) {
     return ParseDirectScenario(YamlReader::LoadString(text, "scenario.yaml"),
                                SourcePath("configs/scenarios"))
         .scene.needle.coupling.tissues[kLiverTissue]
-        .tip_hold_measure;
+        .seed_distance;
   };
-  EXPECT_EQ(liver_measure(DefaultText()), TipHoldMeasure::kDepth);
-  EXPECT_EQ(liver_measure(Edited(liver, liver + "tip_hold_measure: last_point, ")),
-            TipHoldMeasure::kLastPoint);
-  EXPECT_EQ(LoadError(Edited(liver, liver + "tip_hold_measure: entry, ")),
-            "scenario.yaml: needle.liver.tip_hold_measure: expected one of depth, last_point, got "
+  EXPECT_EQ(liver_measure(DefaultText()), SeedDistance::kDepth);
+  EXPECT_EQ(liver_measure(Edited(liver, liver + "seed_distance: last_point, ")),
+            SeedDistance::kLastPoint);
+  EXPECT_EQ(LoadError(Edited(liver, liver + "seed_distance: entry, ")),
+            "scenario.yaml: needle.liver.seed_distance: expected one of depth, last_point, got "
             "'entry'");
 }
 

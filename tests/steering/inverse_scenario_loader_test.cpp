@@ -106,7 +106,7 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
-                            "  tip_hold: handover\n  tip_hold_measure: last_point\n"
+                            "  tip_hold: handover\n  seed_distance: last_point\n"
                             "  jacobian_friction: solved\n" +
                                 kInverseKey);
   text = Edited(text, "  model_pose: auto ", "  model_pose: measured ");
@@ -114,7 +114,7 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   text = Edited(text, "  shrink: true ", "  shrink: false ");
   const InverseScenario s = Load(text);
   EXPECT_EQ(s.loop.model.tip_hold, TipHold::kHandover);
-  EXPECT_EQ(s.loop.model.tip_hold_measure, TipHoldMeasure::kLastPoint);
+  EXPECT_EQ(s.loop.model.seed_distance, SeedDistance::kLastPoint);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_EQ(s.loop.model_pose, ModelPose::kMeasured);
   EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);
