@@ -560,11 +560,11 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
         if (at_tip.tet >= 0) {
           ts.tip = at_tip;
           if (state.tip_tissue < 0) state.tip_tissue = t;
-          const auto past_last_point = [&] {
+          if (cfg.seed_distance == SeedDistance::kLastPoint) {
             const Eigen::Vector3d x_last = EvalTetPoint(mesh.tets, x, ts.points.back().point);
-            return (n - 1 - ProjectOnPolyline(needle.end, x_last)) * needle.segment_length;
-          };
-          r.past_last_point = past_last_point();
+            r.past_last_point =
+                (n - 1 - ProjectOnPolyline(needle.end, x_last)) * needle.segment_length;
+          }
           if (PastSeed(cfg, ts) >= cfg.point_spacing) {
             NeedlePathPoint p;
             p.kind = NeedlePathPoint::Kind::kTrajectory;
@@ -573,7 +573,7 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
             p.seed_depth = r.depth;
             ts.points.push_back(p);
             ts.last_seed_depth = r.depth;
-            r.past_last_point = past_last_point();
+            r.past_last_point = 0.0;  // the new point is at the tip
           }
         } else if (r.depth <= kRetractionSlack * cfg.point_spacing) {
           // the tip is still at the entry (just punctured, or backing out): not held

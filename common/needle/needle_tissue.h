@@ -195,7 +195,8 @@ struct TissueCouplingReport {
   double puncture_time = std::numeric_limits<double>::quiet_NaN();  ///< (s)
   double depth = 0.0;        ///< needle length inside the tissue (m)
   /// The tip's arc-length distance past the last seeded point's projection on the needle (m),
-  /// kInside; what seed_distance last_point holds the tip and seeds the next point by.
+  /// kInside, with seed_distance last_point (0 otherwise): what it holds the tip and seeds the
+  /// next point by.
   double past_last_point = 0.0;
   int num_points = 0;        ///< entry + trajectory + exit points
   double contact_force = 0.0;        ///< contact multiplier (N), kContact
