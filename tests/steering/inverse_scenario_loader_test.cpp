@@ -105,16 +105,16 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   EXPECT_EQ(plain.loop.model_pose, ModelPose::kAuto);       // the default scenario's
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
+  EXPECT_EQ(plain.loop.model.seed_distance, SeedDistance::kLastPoint);  // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
-                            "  tip_hold: handover\n  seed_distance: last_point\n"
-                            "  jacobian_friction: solved\n" +
-                                kInverseKey);
+                            "  tip_hold: handover\n  jacobian_friction: solved\n" + kInverseKey);
+  text = Edited(text, "  seed_distance: last_point ", "  seed_distance: depth ");
   text = Edited(text, "  model_pose: auto ", "  model_pose: measured ");
   text = Edited(text, "  preparation: exhale ", "  preparation: buffer ");
   text = Edited(text, "  shrink: true ", "  shrink: false ");
   const InverseScenario s = Load(text);
   EXPECT_EQ(s.loop.model.tip_hold, TipHold::kHandover);
-  EXPECT_EQ(s.loop.model.seed_distance, SeedDistance::kLastPoint);
+  EXPECT_EQ(s.loop.model.seed_distance, SeedDistance::kDepth);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_EQ(s.loop.model_pose, ModelPose::kMeasured);
   EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);
