@@ -547,12 +547,13 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
       for (const NeedlePathPoint& p : ts.points) last = std::max(last, p.seed_depth);
       ts.last_seed_depth = last;
 
-      const double u_entry =
-          ProjectOnPolyline(needle.end, EvalTetPoint(mesh.tets, x, ts.points.front().point));
+      // a path point's position along the needle (in segments from its base)
+      auto along = [&](const NeedlePathPoint& p) {
+        return ProjectOnPolyline(needle.end, EvalTetPoint(mesh.tets, x, p.point));
+      };
+      const double u_entry = along(ts.points.front());
       if (ts.phase == TissuePhase::kExited) {
-        const double u_exit =
-            ProjectOnPolyline(needle.end, EvalTetPoint(mesh.tets, x, ts.points.back().point));
-        r.depth = (u_exit - u_entry) * needle.segment_length;
+        r.depth = (along(ts.points.back()) - u_entry) * needle.segment_length;
       } else {
         r.depth = (n - 1 - u_entry) * needle.segment_length;
         const int hint = ts.tip.tet >= 0 ? ts.tip.tet : ts.points.back().point.tet;
@@ -561,9 +562,9 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
           ts.tip = at_tip;
           if (state.tip_tissue < 0) state.tip_tissue = t;
           if (cfg.seed_distance == SeedDistance::kLastPoint) {
-            const Eigen::Vector3d x_last = EvalTetPoint(mesh.tets, x, ts.points.back().point);
-            r.past_last_point =
-                (n - 1 - ProjectOnPolyline(needle.end, x_last)) * needle.segment_length;
+            // the entry point is the last one until the first seed: its projection is at hand
+            const double u_last = ts.points.size() == 1 ? u_entry : along(ts.points.back());
+            r.past_last_point = (n - 1 - u_last) * needle.segment_length;
           }
           if (PastSeed(cfg, ts) >= cfg.point_spacing) {
             NeedlePathPoint p;
