@@ -33,22 +33,10 @@ TetMesh ReadMesh(const YamlReader& node, const std::string& base_dir, std::strin
   }
 }
 
-void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
-  node.CheckKeys({"puncture_force", "friction_coefficient", "friction_force_per_length",
-                  "point_spacing", "tip_constraint", "tip_hold", "seed_distance", "contact_margin",
-                  "lateral_compliance", "tip_compliance"});
-  node.Read("puncture_force", &t->puncture_force);
-  node.Read("friction_coefficient", &t->friction_coefficient);
-  node.Read("friction_force_per_length", &t->friction_force_per_length);
-  node.Read("point_spacing", &t->point_spacing);
-  node.Read("tip_constraint", &t->tip_constraint);
-  const int tip_hold = node.ReadChoice("tip_hold", TipHoldNames());
-  if (tip_hold >= 0) t->tip_hold = static_cast<TipHold>(tip_hold);
-  const int measure = node.ReadChoice("seed_distance", SeedDistanceNames());
-  if (measure >= 0) t->seed_distance = static_cast<SeedDistance>(measure);
-  node.Read("contact_margin", &t->contact_margin);
-  node.Read("lateral_compliance", &t->lateral_compliance);
-  node.Read("tip_compliance", &t->tip_compliance);
+// needle.<tissue>: the coupling's keys, and no other
+void ReadTissueSection(const YamlReader& node, TissueCouplingConfig* t) {
+  node.CheckKeys(TissueCouplingKeys());
+  ReadTissueCoupling(node, t);
 }
 
 }  // namespace
@@ -116,9 +104,8 @@ void ReadNeedle(const YamlReader& node, SceneNeedleConfig* n) {
   if (type >= 0) n->kind = type == 0 ? NeedleKind::kRigid : NeedleKind::kFlexible;
   NeedleConfig& g = n->kind == NeedleKind::kRigid ? n->rigid : n->flexible.needle;
   ReadNeedleMaterial(node, &g, &n->flexible);
-  if (node.Has("skin")) ReadTissueCoupling(node.Child("skin"), &n->coupling.tissues[kSkinTissue]);
-  if (node.Has("liver"))
-    ReadTissueCoupling(node.Child("liver"), &n->coupling.tissues[kLiverTissue]);
+  if (node.Has("skin")) ReadTissueSection(node.Child("skin"), &n->coupling.tissues[kSkinTissue]);
+  if (node.Has("liver")) ReadTissueSection(node.Child("liver"), &n->coupling.tissues[kLiverTissue]);
   if (node.Has("bevel")) ReadBevel(node.Child("bevel"), &n->coupling.bevel);
 }
 

@@ -59,9 +59,6 @@ void CheckInverseBounds(const InverseScenario& s) {
   // the model's stiffness error: the experiments draw +-13 %; a factor of 10 is no model
   CheckRange(s.loop.model.young_modulus_factor, 0.1, 10.0, "inverse.young_modulus_factor", "",
              false);
-  // as needle.<tissue> of the patient: puncture forces are 0.1..10 N, points mm apart
-  CheckAtMost(s.loop.model.puncture_force, 1e3, "inverse.puncture_force", "N");
-  CheckAtMost(s.loop.model.point_spacing, 2.0, "inverse.point_spacing", "m");
 }
 
 // Upper bounds of the path and the Jacobian steps, beyond SteeringPathConfig's and
@@ -132,10 +129,16 @@ void ReadModelNeedle(const YamlReader& inv, const YamlReader& root, InverseModel
 void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::string& path,
                  InverseScenario* s) {
   RejectKeysMovedToShared(inv, "inverse");
-  inv.CheckKeys({"mesh", "liver", "young_modulus_factor", "puncture_force", "point_spacing",
-                 "tip_constraint", "tip_hold", "seed_distance", "lateral_compliance",
-                 "tip_compliance", "jacobian_friction", "constraint_compliance",
-                 "friction_coefficient", "anchors", "bevel", "needle"});
+  std::vector<std::string> keys = {"mesh",
+                                   "liver",
+                                   "young_modulus_factor",
+                                   "jacobian_friction",
+                                   "constraint_compliance",
+                                   "anchors",
+                                   "bevel",
+                                   "needle"};
+  keys.insert(keys.end(), TissueCouplingKeys().begin(), TissueCouplingKeys().end());
+  inv.CheckKeys(keys);
   const int compliance = inv.ReadChoice("constraint_compliance", ConstraintComplianceNames());
   if (compliance >= 0) s->loop.model.rest_compliance = compliance == 0;
   std::filesystem::path mesh = inv.Child("mesh").AsString();
@@ -143,18 +146,9 @@ void ReadInverse(const YamlReader& inv, const YamlReader& root, const std::strin
   s->mesh_path = mesh.lexically_normal().string();
   if (inv.Has("liver")) ReadFem(inv.Child("liver"), &s->loop.model.liver);
   inv.Read("young_modulus_factor", &s->loop.model.young_modulus_factor);
-  inv.Read("puncture_force", &s->loop.model.puncture_force);
-  inv.Read("point_spacing", &s->loop.model.point_spacing);
-  inv.Read("tip_constraint", &s->loop.model.tip_constraint);
-  const int tip_hold = inv.ReadChoice("tip_hold", TipHoldNames());
-  if (tip_hold >= 0) s->loop.model.tip_hold = static_cast<TipHold>(tip_hold);
-  const int measure = inv.ReadChoice("seed_distance", SeedDistanceNames());
-  if (measure >= 0) s->loop.model.seed_distance = static_cast<SeedDistance>(measure);
-  inv.Read("lateral_compliance", &s->loop.model.lateral_compliance);
-  inv.Read("tip_compliance", &s->loop.model.tip_compliance);
+  ReadTissueCoupling(inv, &s->loop.model.coupling);
   const int jacobian_friction = inv.ReadChoice("jacobian_friction", {"held", "solved"});
   if (jacobian_friction >= 0) s->loop.model.jacobian_friction_held = jacobian_friction == 0;
-  inv.Read("friction_coefficient", &s->loop.model.friction_coefficient);
   s->loop.model.anchors = ReadOrientedBoxes(inv, "anchors");
   ReadModelBevel(inv, root, &s->loop.model.bevel);
   ReadModelNeedle(inv, root, &s->loop.model);

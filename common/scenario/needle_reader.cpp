@@ -34,4 +34,28 @@ void ReadNeedleMaterial(const YamlReader& node, NeedleConfig* g, BeamNeedleConfi
   node.Read("rayleigh_stiffness", &beam->rayleigh_stiffness);
 }
 
+const std::vector<std::string>& TissueCouplingKeys() {
+  static const std::vector<std::string> keys = {
+      "puncture_force", "friction_coefficient", "friction_force_per_length",
+      "point_spacing",  "tip_constraint",       "tip_hold",
+      "seed_distance",  "contact_margin",       "lateral_compliance",
+      "tip_compliance"};
+  return keys;
+}
+
+void ReadTissueCoupling(const YamlReader& node, TissueCouplingConfig* t) {
+  node.Read("puncture_force", &t->puncture_force);
+  node.Read("friction_coefficient", &t->friction_coefficient);
+  node.Read("friction_force_per_length", &t->friction_force_per_length);
+  node.Read("point_spacing", &t->point_spacing);
+  node.Read("tip_constraint", &t->tip_constraint);
+  const int tip_hold = node.ReadChoice("tip_hold", TipHoldNames());
+  if (tip_hold >= 0) t->tip_hold = static_cast<TipHold>(tip_hold);
+  const int measure = node.ReadChoice("seed_distance", SeedDistanceNames());
+  if (measure >= 0) t->seed_distance = static_cast<SeedDistance>(measure);
+  node.Read("contact_margin", &t->contact_margin);
+  node.Read("lateral_compliance", &t->lateral_compliance);
+  node.Read("tip_compliance", &t->tip_compliance);
+}
+
 }  // namespace nsim

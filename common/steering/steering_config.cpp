@@ -49,13 +49,7 @@ void InverseModelConfig::Validate() const {
   if (markers_W.empty()) throw InputError("inverse.markers must list >= 1 marker, got 0");
   for (size_t i = 0; i < markers_W.size(); ++i) CheckFinite(markers_W[i], Str("inverse.markers[", i, "]"));
   needle.Validate("inverse.needle");
-  CheckPositive(puncture_force, "inverse.puncture_force", " (N)");
-  CheckPositive(point_spacing, "inverse.point_spacing", " (m)");
-  // Coulomb coefficients of needles in soft tissue are 0.05-0.5 (SOFA example: 0.1); 2 is absurd
-  CheckRange(friction_coefficient, 0.0, 2.0, "inverse.friction_coefficient", "");
-  // the patient's bounds (TissueCouplingConfig::Validate): 1 m/N no longer holds anything
-  CheckRange(lateral_compliance, 0.0, 1.0, "inverse.lateral_compliance", " (m/N)");
-  CheckRange(tip_compliance, 0.0, 1.0, "inverse.tip_compliance", " (m/N)");
+  coupling.Validate("inverse");  // the patient's checks and bounds, named inverse.<key>
   for (size_t i = 0; i < anchors.size(); ++i) anchors[i].Validate(Str("inverse.anchors[", i, "]"));
   bevel.Validate("inverse.bevel");
   if (needle_kind == ModelNeedleKind::kFlexible)

@@ -63,28 +63,20 @@ struct InverseModelConfig {
   /// keys of the patient's needle section). Its geometry is `needle`'s and its time step the
   /// liver's: CalcModelBeamConfig.
   BeamNeedleConfig flexible;
-  /// Liver puncture: axial contact force (N), > 0.
-  double puncture_force = 0.3;
-  /// Spacing of the trajectory constraint points along the needle path in the liver (m), > 0.
-  double point_spacing = 0.013;
-  /// Lateral tip constraint in the liver (common/needle, needle_tissue.h).
-  bool tip_constraint = true;
-  /// Where the tip is held after each trajectory point (TissueCouplingConfig::tip_hold).
-  TipHold tip_hold = TipHold::kQuarter;
-  /// What the tip's distance past the last point is measured by, for its hold and the next
-  /// seed (TissueCouplingConfig::seed_distance; YAML inverse.seed_distance).
-  SeedDistance seed_distance = SeedDistance::kDepth;
-  /// Series compliance of the lateral needle rows in the model liver (m/N), >= 0
-  /// (TissueCouplingConfig::lateral_compliance; YAML inverse.lateral_compliance).
-  double lateral_compliance = 0.0;
-  /// The same for the tip's lateral rows (TissueCouplingConfig::tip_compliance; YAML
-  /// inverse.tip_compliance).
-  double tip_compliance = 0.0;
-  /// Coulomb coefficient of the needle's axial friction in the model liver (-), >= 0 (YAML
-  /// inverse.friction_coefficient): the same law as the patient's needle (an axial friction row
-  /// per trajectory point, common/needle/needle_tissue.h), with the model's own normal forces.
-  /// 0: frictionless, every row bilateral or a contact.
-  double friction_coefficient = 0.0;
+  /// The needle-liver coupling of the model: the patient's law (common/needle/needle_tissue.h)
+  /// with the model's own values (YAML inverse.<key>, the keys of the patient's
+  /// needle.<tissue>: puncture_force, point_spacing, tip_constraint, tip_hold, seed_distance,
+  /// lateral_compliance, tip_compliance, friction_coefficient, friction_force_per_length,
+  /// contact_margin). By default a 0.3 N puncture and no friction (friction_coefficient 0:
+  /// every row bilateral or a contact); with friction, an axial friction row per trajectory
+  /// point, with the model's own normal forces.
+  TissueCouplingConfig coupling = [] {
+    TissueCouplingConfig c;
+    c.name = "liver";
+    c.puncture_force = 0.3;
+    c.friction_coefficient = 0.0;
+    return c;
+  }();
   /// With friction: the Jacobian's frozen step holds the friction rows at the step's forces (a
   /// sliding needle, ConstraintSnapshot::set_hold_friction; YAML inverse.jacobian_friction:
   /// held) instead of solving their law again (solved), under which a small perturbation

@@ -102,18 +102,7 @@ SteeringSimulation::SteeringSimulation(const InverseModelConfig& config,
 
   // the needle-liver coupling, with the model's axial friction (0: frictionless)
   NeedleCouplingConfig coupling;
-  TissueCouplingConfig liver;
-  liver.name = "liver";
-  liver.puncture_force = config.puncture_force;
-  liver.friction_coefficient = config.friction_coefficient;
-  liver.friction_force_per_length = 0.0;
-  liver.point_spacing = config.point_spacing;
-  liver.tip_constraint = config.tip_constraint;
-  liver.tip_hold = config.tip_hold;
-  liver.seed_distance = config.seed_distance;
-  liver.lateral_compliance = config.lateral_compliance;
-  liver.tip_compliance = config.tip_compliance;
-  coupling.tissues = {liver};
+  coupling.tissues = {config.coupling};
   coupling.bevel = config.bevel;
   coupling_ = std::make_unique<NeedleTissueCoupling>(coupling, std::vector<const TetMesh*>{&mesh_});
   snapshot_.set_hold_friction(config_.jacobian_friction_held);
@@ -281,7 +270,8 @@ CatchUpReport SteeringSimulation::CatchUp(const std::vector<Eigen::Vector3d>& p_
       path.size() > 1 ? Eigen::Vector3d((path.back() - path.front()).normalized()) : direction_;
   Eigen::Vector3d start = path.front() - spacing_0 * d;
   const TetLocator deformed(mesh_, state_->x);
-  for (int i = 0; i < 10 && deformed.Locate(start); ++i) start -= config_.point_spacing * d;
+  for (int i = 0; i < 10 && deformed.Locate(start); ++i)
+    start -= config_.coupling.point_spacing * d;
   const double depth = (tip - start).dot(d);
   // the needle's orientation along the path: its measured one turned from its axis onto d
   const Eigen::Matrix3d R_path =

@@ -100,12 +100,13 @@ TEST(InverseScenarioLoaderTest, ScheduledAdoptionsKeepTheRefreshWorkerInTheNorma
 // the model's needle coupling and prediction options: defaults, values, and bad choices by key
 TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   const InverseScenario plain = Load(DefaultText());
-  EXPECT_EQ(plain.loop.model.tip_hold, TipHold::kQuarter);
+  EXPECT_EQ(plain.loop.model.coupling.tip_hold, TipHold::kQuarter);
   EXPECT_TRUE(plain.loop.model.jacobian_friction_held);
   EXPECT_EQ(plain.loop.model_pose, ModelPose::kAuto);       // the default scenario's
   EXPECT_EQ(plain.loop.preparation, Preparation::kExhale);  // the default scenario's
   EXPECT_TRUE(plain.loop.prediction_shrink);                // the default scenario's
-  EXPECT_EQ(plain.loop.model.seed_distance, SeedDistance::kLastPoint);  // the default scenario's
+  EXPECT_EQ(plain.loop.model.coupling.seed_distance,
+            SeedDistance::kLastPoint);  // the default scenario's
   std::string text = Edited(DefaultText(), kInverseKey,
                             "  tip_hold: handover\n  jacobian_friction: solved\n" + kInverseKey);
   text = Edited(text, "  seed_distance: last_point ", "  seed_distance: depth ");
@@ -113,8 +114,8 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
   text = Edited(text, "  preparation: exhale ", "  preparation: buffer ");
   text = Edited(text, "  shrink: true ", "  shrink: false ");
   const InverseScenario s = Load(text);
-  EXPECT_EQ(s.loop.model.tip_hold, TipHold::kHandover);
-  EXPECT_EQ(s.loop.model.seed_distance, SeedDistance::kDepth);
+  EXPECT_EQ(s.loop.model.coupling.tip_hold, TipHold::kHandover);
+  EXPECT_EQ(s.loop.model.coupling.seed_distance, SeedDistance::kDepth);
   EXPECT_FALSE(s.loop.model.jacobian_friction_held);
   EXPECT_EQ(s.loop.model_pose, ModelPose::kMeasured);
   EXPECT_EQ(s.loop.preparation, Preparation::kBuffer);

@@ -360,7 +360,7 @@ StretchRun RunStretchInsertion(double offset, double bound, double tolerance = 0
 // well under the default 0.1 mm, so the other runs use 0)
 TEST(SteeringControllerTest, TheLastFreeStretchBeforeAHeldApproachIsSlowed) {
   constexpr double kBound = 0.0005;
-  const double spacing = MakeModelConfig().point_spacing;
+  const double spacing = MakeModelConfig().coupling.point_spacing;
   const StretchRun free = RunStretchInsertion(0.0, 0.0);
   ASSERT_TRUE(free.reached_end);
   auto same_commands = [](const StretchRun& a, const StretchRun& b) {

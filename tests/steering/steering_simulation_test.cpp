@@ -96,7 +96,7 @@ class SteeringSimulationVariantTest : public SteeringSimulationTest,
                                       public ::testing::WithParamInterface<ModelVariant> {
  protected:
   SteeringSimulationVariantTest() {
-    model_.friction_coefficient = GetParam().friction_coefficient;
+    model_.coupling.friction_coefficient = GetParam().friction_coefficient;
     model_.jacobian_friction_held = GetParam().friction_held;
     if (GetParam().anchored) model_.anchors = {PosteriorAnchor()};
     model_.bevel.enabled = GetParam().bevel;
@@ -214,7 +214,7 @@ TEST_F(SteeringSimulationTest, DisabledBevelIsBitIdentical) {
 // the same material point take the load, and the tip's material point does not move laterally.
 TEST_F(SteeringSimulationTest, BevelPushesTheTissueAtTheTipAgainstTheBevelSide) {
   // (a) the tip point free laterally: no tip constraint
-  model_.tip_constraint = false;
+  model_.coupling.tip_constraint = false;
   auto plain = Advance(kInsideSteps);
   ASSERT_GE(plain->liver_coupling().tip.tet, 0) << "the tip must be in the liver";
   const TetPoint tip = plain->liver_coupling().tip;
@@ -247,7 +247,7 @@ TEST_F(SteeringSimulationTest, BevelPushesTheTissueAtTheTipAgainstTheBevelSide) 
   EXPECT_LT((d0 + d_pi).norm(), 0.2 * d0.norm()) << d0.transpose() << " / " << d_pi.transpose();
 
   // (b) with the tip constraint the load is taken at the same material point by its rows
-  model_.tip_constraint = true;
+  model_.coupling.tip_constraint = true;
   model_.bevel.enabled = false;
   bevel_angle_ = 0.0;
   auto held_plain = Advance(kInsideSteps);
@@ -266,7 +266,7 @@ TEST_F(SteeringSimulationTest, BevelPushesTheTissueAtTheTipAgainstTheBevelSide) 
 TEST_F(SteeringSimulationTest, AxialFrictionDragsTheTissueAlongTheNeedle) {
   auto plain = Advance(kInsideSteps);
   InverseModelConfig friction = model_;
-  friction.friction_coefficient = 0.1;
+  friction.coupling.friction_coefficient = 0.1;
   SteeringSimulation rubbed(friction, path_, mesh_, X_WF0_);
   for (int i = 1; i <= kInsideSteps; ++i) rubbed.Step(RestMarkers(friction), InsertionPose(X_WF0_, dir_, i));
   double total = 0.0;
@@ -299,7 +299,7 @@ TEST_F(SteeringSimulationTest, HeldFrictionLetsThePerturbedNeedleSlide) {
   int sticking = 0;
   for (bool held : {false, true}) {
     InverseModelConfig friction = model_;
-    friction.friction_coefficient = 0.1;
+    friction.coupling.friction_coefficient = 0.1;
     friction.jacobian_friction_held = held;
     SteeringSimulation sim(friction, path_, mesh_, X_WF0_);
     // the liver moves under the needle as the markers breathe: lateral loads, so friction
@@ -380,17 +380,19 @@ TEST_F(SteeringSimulationTest, AnchorsHoldTheirNodesAndAreChecked) {
   flat.anchors[0].half_size.y() = 0.0;
   EXPECT_NE(message(flat).find("inverse.anchors[0].half_size"), std::string::npos) << message(flat);
   InverseModelConfig negative = model_;
-  negative.friction_coefficient = -0.1;
-  EXPECT_NE(message(negative).find("inverse.friction_coefficient must be in [0, 2]"),
+  negative.coupling.friction_coefficient = -0.1;
+  EXPECT_NE(message(negative).find("inverse.friction_coefficient must be >= 0, got -0.1"),
             std::string::npos)
       << message(negative);
   InverseModelConfig pulling = model_;
-  pulling.lateral_compliance = -1e-3;
-  EXPECT_NE(message(pulling).find("inverse.lateral_compliance must be in [0, 1]"), std::string::npos)
+  pulling.coupling.lateral_compliance = -1e-3;
+  EXPECT_NE(message(pulling).find("inverse.lateral_compliance must be >= 0 (m/N)"),
+            std::string::npos)
       << message(pulling);
   InverseModelConfig loose = model_;
-  loose.tip_compliance = 2.0;
-  EXPECT_NE(message(loose).find("inverse.tip_compliance must be in [0, 1]"), std::string::npos)
+  loose.coupling.tip_compliance = 2.0;
+  EXPECT_NE(message(loose).find("inverse.tip_compliance must be <= 1 (m/N), got 2"),
+            std::string::npos)
       << message(loose);
 }
 
