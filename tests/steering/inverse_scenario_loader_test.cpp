@@ -147,6 +147,37 @@ TEST(InverseScenarioLoaderTest, ReadsTheCouplingAndPoseOptions) {
             ModelPose::kCommanded);
 }
 
+// the model's coupling takes every key of the patient's needle.<tissue> section, with the
+// patient's checks and bounds named by the model's key
+TEST(InverseScenarioLoaderTest, CouplingTakesThePatientsTissueKeys) {
+  const InverseScenario plain = Load(DefaultText());
+  EXPECT_EQ(plain.loop.model.coupling.name, "liver");
+  EXPECT_DOUBLE_EQ(plain.loop.model.coupling.puncture_force, 0.3);
+  EXPECT_DOUBLE_EQ(plain.loop.model.coupling.friction_coefficient, 0.0);  // frictionless model
+  EXPECT_DOUBLE_EQ(plain.loop.model.coupling.friction_force_per_length, 0.0);
+  const InverseScenario s = Load(
+      Edited(DefaultText(), kInverseKey,
+             "  friction_force_per_length: 25\n  contact_margin: 0.003\n  tip_constraint: false\n" +
+                 kInverseKey));
+  EXPECT_DOUBLE_EQ(s.loop.model.coupling.friction_force_per_length, 25.0);
+  EXPECT_DOUBLE_EQ(s.loop.model.coupling.contact_margin, 0.003);
+  EXPECT_FALSE(s.loop.model.coupling.tip_constraint);
+  const std::string margin =
+      LoadError(Edited(DefaultText(), kInverseKey, "  contact_margin: 0.5\n" + kInverseKey));
+  EXPECT_NE(margin.find("inverse.contact_margin must be <= 0.1 (m), got 0.5"), std::string::npos)
+      << margin;
+  const std::string spacing =
+      LoadError(Edited(DefaultText(), "  point_spacing: 0.013\n", "  point_spacing: 0\n"));
+  EXPECT_NE(spacing.find("inverse.point_spacing must be > 0 (m), got 0"), std::string::npos)
+      << spacing;
+  // handover holds the tip at every depth: without the tip's row there is nothing to hand over
+  const std::string handover = LoadError(Edited(
+      DefaultText(), kInverseKey, "  tip_hold: handover\n  tip_constraint: false\n" + kInverseKey));
+  EXPECT_NE(handover.find("inverse.tip_hold: handover needs inverse.tip_constraint: true"),
+            std::string::npos)
+      << handover;
+}
+
 // the robot's limits, for the forecast of where the commands in flight take it: the scenario's
 // robot section, and a bad value refused by its key
 TEST(InverseScenarioLoaderTest, ReadsTheRobotsLimits) {
