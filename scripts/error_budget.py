@@ -33,6 +33,14 @@ where the true one will be at t + `horizon`: its registration error compares it 
 target of the frame at t + horizon (the nearest frame; frames whose t + horizon is past the run
 are left out). Without these columns (older runs) every frame compares at t.
 
+Where both files have the tip's lateral hold (direct_sim's `liver_tip_hold`, the controller's
+`model_tip_hold`: the fraction of a rigid hold each liver gives its needle's tip, 0 free, 1
+rigid; the hold switches on a quarter point spacing past the last trajectory point with
+`tip_hold: quarter`), the hold over the window: its mean in the model and in the patient, and
+how often the model's switched (consecutive answered frames whose holds differ by 0.5 or more).
+A model that holds its tip while the patient's is free (or the other way) places the tissue at
+the tip, where the target is, differently from the patient.
+
 Where the registration error comes from in time: the registration error at the last answered
 frame before the needle punctures the skin (breathing alone: the markers drive both livers the
 same way) and before it punctures the liver (the skin's pull on the liver added), from the
@@ -79,9 +87,9 @@ def rows(path, keys, optional=()):
 def budget(direct_csv, inverse_csv):
     xyz = lambda p: [p + "_" + a for a in "xyz"]
     truth = rows(direct_csv, ["t", "phase"] + xyz("target") + xyz("tip"),
-                 optional=xyz("robot"))
+                 optional=xyz("robot") + ["liver_tip_hold"])
     model = rows(inverse_csv, ["sim_time", "valid"] + xyz("model_tip") + xyz("model_target"),
-                 optional=("predicted", "horizon"))
+                 optional=("predicted", "horizon", "model_tip_hold"))
     by_time = {round(r["t"], 9): r for r in truth}
     times = [r["t"] for r in truth]
     step = (times[-1] - times[0]) / (len(times) - 1) if len(times) > 1 else 0.0
@@ -106,6 +114,7 @@ def budget(direct_csv, inverse_csv):
     start = 0.8 * truth[-1]["t"]
     final, registration, control, vector = [], [], [], [0.0, 0.0, 0.0]
     axial, lateral = [], []
+    model_hold = []  # the model's tip hold at the window's answered frames
     # the first time the patient's needle is in the skin (phase >= 1) and in the liver (2)
     punctures = [next((r["t"] for r in truth if r["phase"] >= stage), None) for stage in (1, 2)]
     before = [None, None]  # registration error at the last answered frame before each
@@ -132,6 +141,8 @@ def budget(direct_csv, inverse_csv):
         tip = [d[k] for k in xyz("tip")]
         model_tip = [m[k] for k in xyz("model_tip")]
         final.append(1e3 * math.dist(target, tip))
+        if "model_tip_hold" in m:
+            model_hold.append(m["model_tip_hold"])
         control.append(1e3 * math.dist(model_target, model_tip))
         if registered is not None:
             registration.append(registered)
@@ -166,12 +177,18 @@ def budget(direct_csv, inverse_csv):
                 drift = 1e3 * math.dist(centre(cycle), centre(window))
         needle = (mean(axial), mean(lateral), arrival[1] if arrival else None,
                   arrival[2] if arrival else None, drift)
+    hold = None  # (model's mean, patient's mean, the model's switches)
+    patient_hold = [d["liver_tip_hold"] for d in truth if d["t"] >= start and "liver_tip_hold" in d]
+    if model_hold and patient_hold:
+        switches = sum(abs(b - a) >= HOLD_SWITCH for a, b in zip(model_hold, model_hold[1:]))
+        hold = (mean(model_hold), mean(patient_hold), switches)
     return (mean(final), mean(registration), mean(control), [v / n for v in vector], len(final),
-            before, needle)
+            before, needle, hold)
 
 
 ARRIVAL_AHEAD_MM = 0.3  # the target less than this ahead of the tip along the axis: arrived
 DRIFT_CYCLE_S = 4.0  # the mean flange position after the arrival: over a breathing cycle
+HOLD_SWITCH = 0.5  # consecutive holds that differ by this much: the hold switched
 
 
 def mm(value):
@@ -187,6 +204,13 @@ def needle_text(needle):
                                    mm(off), mm(drift)))
 
 
+def hold_text(hold):
+    if hold is None:
+        return ""
+    return "; tip hold model %.2f (%s switches), patient %.2f" % (
+        hold[0], ("%d" % hold[2]) if float(hold[2]).is_integer() else "%.1f" % hold[2], hold[1])
+
+
 def main(argv):
     if len(argv) < 2 or argv[1] in ("-h", "--help"):
         print(__doc__)
@@ -197,13 +221,13 @@ def main(argv):
             direct_dir, inverse_dir = arg.split(":", 1)
         else:
             direct_dir, inverse_dir = os.path.join(arg, "direct"), os.path.join(arg, "inverse")
-        f, r, c, v, n, before, needle = budget(os.path.join(direct_dir, "timeseries.csv"),
-                                               os.path.join(inverse_dir, "inverse.csv"))
-        totals.append((f, r, c, before, needle))
+        f, r, c, v, n, before, needle, hold = budget(
+            os.path.join(direct_dir, "timeseries.csv"), os.path.join(inverse_dir, "inverse.csv"))
+        totals.append((f, r, c, before, needle, hold))
         print("%s: final %.3f mm = registration %.3f mm (model - true: %+.3f %+.3f %+.3f mm), "
               "control %.3f mm; %d frames; registration before the skin's puncture %s, "
-              "before the liver's %s%s" % (arg, f, r, v[0], v[1], v[2], c, n, mm(before[0]),
-                                           mm(before[1]), needle_text(needle)))
+              "before the liver's %s%s%s" % (arg, f, r, v[0], v[1], v[2], c, n, mm(before[0]),
+                                             mm(before[1]), needle_text(needle), hold_text(hold)))
     if len(totals) > 1:
         m = [sum(t[i] for t in totals) / len(totals) for i in range(3)]
         stage = []
@@ -217,9 +241,12 @@ def main(argv):
                 have = [x[i] for x in needles if x[i] is not None]
                 return sum(have) / len(have) if have else None
             needle = tuple(over(i) for i in range(5))
+        holds = [t[5] for t in totals if t[5] is not None]
+        hold = tuple(sum(h[i] for h in holds) / len(holds) for i in range(3)) if holds else None
         print("mean over %d runs: final %.3f mm, registration %.3f mm, control %.3f mm; "
-              "registration before the skin's puncture %s, before the liver's %s%s"
-              % (len(totals), m[0], m[1], m[2], stage[0], stage[1], needle_text(needle)))
+              "registration before the skin's puncture %s, before the liver's %s%s%s"
+              % (len(totals), m[0], m[1], m[2], stage[0], stage[1], needle_text(needle),
+                 hold_text(hold)))
     return 0
 
 

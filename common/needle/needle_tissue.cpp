@@ -38,6 +38,24 @@ double PastSeed(const TissueCouplingConfig& cfg, const TissueCouplingState& ts) 
                                                        : ts.report.depth - ts.last_seed_depth;
 }
 
+// the tip's lateral rows at past_seed (the distance PastSeed gives), as tip_hold says: none
+// (nullopt), or their softness (0: rigid; ramp: full / past - 1, which holds the fraction past /
+// full of a rigid hold, from nothing at the seed to rigid a quarter spacing past it)
+std::optional<double> TipHoldSoftness(const TissueCouplingConfig& cfg, double past_seed) {
+  if (!cfg.tip_constraint) return std::nullopt;
+  const double full_hold = kTipSkipFraction * cfg.point_spacing;
+  switch (cfg.tip_hold) {
+    case TipHold::kHandover:
+      return 0.0;
+    case TipHold::kRamp:
+      if (past_seed < kTipRampStart * full_hold) return std::nullopt;
+      return past_seed < full_hold ? full_hold / past_seed - 1.0 : 0.0;
+    case TipHold::kQuarter:
+      break;
+  }
+  return past_seed >= full_hold ? std::optional<double>(0.0) : std::nullopt;
+}
+
 Eigen::Vector3d PolylinePoint(const Eigen::Matrix3Xd& X, double u) {
   const int n = static_cast<int>(X.cols());
   const int k = std::clamp(static_cast<int>(std::floor(u)), 0, n - 2);
@@ -403,18 +421,15 @@ void NeedleTissueCoupling::AddConstraints(const NeedleView& needle,
     }
 
     // tip: the tissue ahead is cut; laterally the tip follows the tissue it is in
-    const bool ramp = cfg.tip_hold == TipHold::kRamp;
-    if (tip_held &&
-        (cfg.tip_hold == TipHold::kHandover || past_seed >= (ramp ? first_hold : full_hold))) {
+    const std::optional<double> tip_softness =
+        tip_held ? TipHoldSoftness(cfg, past_seed) : std::nullopt;
+    if (tip_softness) {
       // keyed: the tip moves through the tissue, its columns come from cached node columns
       const int pt = set.AddBodyPoint(b, mesh.tets[ts.tip.tet], ts.tip.bary, kTipPointKey);
       const int pn = add_needle_point(u_tip);
       state.tags.push_back(add_lateral_rows(pt, pn, z_tip_end, CouplingRowTag::Kind::kTip, t));
       if (cfg.tip_compliance > 0.0) set.SetCompliance(set.num_rows() - 2, 2, cfg.tip_compliance);
-      // ramp: softness full / past - 1 holds the fraction past / full of a rigid hold, from
-      // nothing at the seed to rigid a quarter spacing past it, continuous in the depth
-      if (ramp && past_seed < full_hold)
-        set.SetSoftness(set.num_rows() - 2, 2, full_hold / past_seed - 1.0);
+      if (*tip_softness > 0.0) set.SetSoftness(set.num_rows() - 2, 2, *tip_softness);
     }
   }
 }
@@ -605,7 +620,14 @@ void NeedleTissueCoupling::Update(const NeedleView& needle,
     r.puncture_time = ts.puncture_time;
     r.num_points = static_cast<int>(ts.points.size());
     if (!r.punctured) r.depth = 0.0;
-    if (ts.phase != TissuePhase::kInside || ts.tip.tet < 0) r.past_last_point = 0.0;
+    if (ts.phase != TissuePhase::kInside || ts.tip.tet < 0) {
+      r.past_last_point = r.past_seed = r.tip_hold = 0.0;
+    } else {
+      // what the next step's AddConstraints holds the tip by
+      r.past_seed = PastSeed(cfg, ts);
+      const std::optional<double> softness = TipHoldSoftness(cfg, r.past_seed);
+      r.tip_hold = softness ? 1.0 / (1.0 + *softness) : 0.0;
+    }
   }
 }
 

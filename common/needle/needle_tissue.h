@@ -198,6 +198,12 @@ struct TissueCouplingReport {
   /// kInside, with seed_distance last_point (0 otherwise): what it holds the tip and seeds the
   /// next point by.
   double past_last_point = 0.0;
+  /// kInside with the tip located: the tip's distance past the last seeded point as
+  /// seed_distance measures it (m), and the fraction of a rigid lateral hold the tip gets from
+  /// it (tip_hold: 0 free, 1 rigid, in between with ramp; 0 without the tip constraint): what
+  /// the next step's tip rows and seeding use. 0 otherwise.
+  double past_seed = 0.0;
+  double tip_hold = 0.0;
   int num_points = 0;        ///< entry + trajectory + exit points
   double contact_force = 0.0;        ///< contact multiplier (N), kContact
   double axial_contact_force = 0.0;  ///< its component against the needle direction (N)

@@ -30,7 +30,8 @@ ControllerRecorder::ControllerRecorder(const std::string& out_dir) : out_dir_(ou
   csv_->WriteLine(
       "answers_seq,sim_time,phase,path_index,valid,e_p_norm,horizon,predicted,model_tip_x,"
       "model_tip_y,model_tip_z,step_ms,jacobian_ms,total_ms,model_target_x,model_target_y,"
-      "model_target_z,latency_steps,load_gain,preparing,shrinkage");
+      "model_target_z,latency_steps,load_gain,preparing,shrinkage,model_depth_m,"
+      "model_past_seed_m,model_tip_hold");
 }
 
 void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
@@ -42,7 +43,8 @@ void ControllerRecorder::AddAnswer(const ControllerLoop& loop) {
       << ',' << r.model_tip.y() << ',' << r.model_tip.z() << ',' << 1e3 * r.timings.simulation
       << ',' << 1e3 * r.timings.jacobian << ',' << 1e3 * r.timings.total << ','
       << r.model_target.x() << ',' << r.model_target.y() << ',' << r.model_target.z() << ','
-      << r.latency_steps << ',' << r.load_gain << ',' << r.preparing << ',' << r.shrinkage;
+      << r.latency_steps << ',' << r.load_gain << ',' << r.preparing << ',' << r.shrinkage << ','
+      << r.model_depth << ',' << r.model_past_seed << ',' << r.model_tip_hold;
   csv_->WriteLine(row.str());
 }
 

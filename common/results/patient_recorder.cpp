@@ -42,7 +42,7 @@ PatientRecorder::PatientRecorder(const std::string& out_dir) : out_dir_(out_dir)
   csv_->WriteLine(
       "t,tip_target_distance_m,e_p_x,e_p_y,e_p_z,phase,m0_x,m0_y,m0_z,target_x,target_y,"
       "target_z,tip_x,tip_y,tip_z,robot_x,robot_y,robot_z,robot_qw,robot_qx,robot_qy,"
-      "robot_qz,holding");
+      "robot_qz,holding,liver_depth_m,liver_past_seed_m,liver_tip_hold");
   steps_csv_ = Open(out_dir_ + "/step_times.csv");
   steps_csv_->WriteLine("step,t,step_ms,holding,liver_pcg_iterations,liver_factor_adopted,"
                         "liver_adoption_waited");
@@ -69,7 +69,8 @@ void PatientRecorder::AddFrame(const PatientLoop& loop) {
       << ',' << r.phase << ',' << m0.x() << ',' << m0.y() << ',' << m0.z() << ','
       << r.target.x() << ',' << r.target.y() << ',' << r.target.z() << ',' << r.tip.x() << ','
       << r.tip.y() << ',' << r.tip.z() << ',' << p.x() << ',' << p.y() << ',' << p.z() << ','
-      << q.w() << ',' << q.x() << ',' << q.y() << ',' << q.z() << ',' << (r.holding ? 1 : 0);
+      << q.w() << ',' << q.x() << ',' << q.y() << ',' << q.z() << ',' << (r.holding ? 1 : 0)
+      << ',' << r.liver.depth << ',' << r.liver.past_seed << ',' << r.liver.tip_hold;
   csv_->WriteLine(row.str());
 }
 

@@ -341,6 +341,8 @@ TissueStatus PatientScene::GetTissueStatus(int tissue) const {
   status.punctured = s.phase == TissuePhase::kInside || s.phase == TissuePhase::kExited;
   status.puncture_time = status.punctured ? s.puncture_time : 0.0;
   status.depth = s.report.depth;
+  status.past_seed = s.report.past_seed;
+  status.tip_hold = s.report.tip_hold;
   return status;
 }
 

@@ -111,6 +111,9 @@ struct TissueStatus {
   bool punctured = false;
   double puncture_time = 0.0;  ///< (s), meaningful when punctured
   double depth = 0.0;          ///< needle length inside (m)
+  /// the tip's distance past the last seeded point and its hold (TissueCouplingReport)
+  double past_seed = 0.0;     ///< (m)
+  double tip_hold = 0.0;      ///< fraction of a rigid hold (0 free, 1 rigid)
 };
 
 /// The scene: model, state and the solvers.

@@ -338,6 +338,10 @@ std::optional<RobotTarget> ControllerLoop::Step(const SensorFrame& frame) {
   r.load_gain = out.load_gain;
   r.preparing = preparing_;
   r.timings = out.timings;
+  const TissueCouplingReport& liver = controller_->simulation().liver_coupling().report;
+  r.model_depth = liver.depth;
+  r.model_past_seed = liver.past_seed;
+  r.model_tip_hold = liver.tip_hold;
   if (!out.valid) {
     ++counts_.invalid_outputs;
     return std::nullopt;

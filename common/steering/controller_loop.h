@@ -146,6 +146,11 @@ struct ControllerRecord {
   /// the mean over the markers of the factor their predicted displacements were scaled by
   /// (prediction.shrink; 1 without it or without prediction)
   double shrinkage = 1.0;
+  /// the model's needle in its liver after the step (TissueCouplingReport): depth (m), the
+  /// tip's distance past the last seeded point (m), the tip's hold (0 free, 1 rigid)
+  double model_depth = 0.0;
+  double model_past_seed = 0.0;
+  double model_tip_hold = 0.0;
   SteeringTimings timings;
 };
 

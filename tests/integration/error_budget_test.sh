@@ -6,7 +6,7 @@
 # shares, the registration before each puncture, the mean over runs (a run
 # that never reaches the liver is left out of that stage's mean), the needle's figures of a run
 # with the robot's flange (the registration along and across the axis, the arrival, the drift),
-# and bad input (exit 2 naming the file and the column).
+# the tip's hold in both livers where the files have it, and bad input (exit 2 naming the file and the column).
 # Usage: error_budget_test.sh SOURCE_DIR
 set -euo pipefail
 src="${1:?usage: error_budget_test.sh SOURCE_DIR}"
@@ -116,6 +116,34 @@ for name in ("/direct/timeseries.csv", "/inverse/inverse.csv"):
 PY
 line_e="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/d")" || fail "short run: exit $?"
 [[ "$line_e" == *"arrival 2.72 s, 0.200 mm off the axis; drift after it -" ]] || fail "short run: $line_e"
+
+# the tip's hold in both livers (liver_tip_hold, model_tip_hold): over the window (8-10 s, 101
+# frames) the model's holds 1 until 9 s, 0.4 until 9.5 s and 0.45 after (one switch: the step of
+# 0.05 is not one), the patient's 0.25 throughout
+mkdir -p "$work/h/direct" "$work/h/inverse"
+/usr/bin/python3 - "$work/h" <<'PY'
+import sys
+d = sys.argv[1]
+with open(d + "/direct/timeseries.csv", "w") as f, open(d + "/inverse/inverse.csv", "w") as g:
+    f.write("t,phase,target_x,target_y,target_z,tip_x,tip_y,tip_z,liver_tip_hold\n")
+    g.write("answers_seq,sim_time,valid,model_tip_x,model_tip_y,model_tip_z,"
+            "model_target_x,model_target_y,model_target_z,model_tip_hold\n")
+    for k in range(1, 501):
+        t = round(0.02 * k, 2)
+        hold = 1.0 if t < 9.0 else 0.4 if t < 9.5 else 0.45
+        f.write("%.2f,2,0.01,0.02,0.03,0.01,0.02,0.0303,0.25\n" % t)
+        g.write("%d,%.2f,1,0.01,0.02,0.0303,0.0105,0.02,0.03,%.2f\n" % (k, t, hold))
+PY
+cp -r "$work/h" "$work/h2"
+sed -i 's/,0\.25$/,0.75/' "$work/h2/direct/timeseries.csv"
+out_h="$(/usr/bin/python3 "$src/scripts/error_budget.py" "$work/h" "$work/h2")" || fail "runs with the hold: exit $?"
+echo "$out_h"
+line_h="$(echo "$out_h" | grep "^$work/h:")"
+[[ "$line_h" == *"; tip hold model 0.71 (1 switches), patient 0.25" ]] || fail "run with the hold: $line_h"
+[[ "$(echo "$out_h" | grep '^mean over 2 runs:')" == *"; tip hold model 0.71 (1 switches), patient 0.50" ]] \
+  || fail "the hold's mean over runs: $out_h"
+# without the columns (runs a, b) nothing is said of the hold
+[[ "$out" != *"tip hold"* ]] || fail "a hold printed for runs without the columns: $out"
 
 # bad input: a missing phase column, a missing file
 sed -i '1s/phase/stage/' "$work/b/direct/timeseries.csv"

@@ -266,6 +266,63 @@ TEST(NeedleTissueTest, TipHoldRampsInAfterASeededPoint) {
   EXPECT_LT(near_point, near_quarter);
 }
 
+// the report's past_seed and tip_hold, against what the coupling does in the next step: past_seed
+// is the depth since the last seed (seed_distance depth) or past_last_point (last_point); the
+// hold is 0 or 1 at a quarter spacing with quarter, past / quarter from 2 % of it with ramp, 1
+// with handover; the tip's rows carry force under a sideways drift exactly when the hold is
+// above 0, and outside the tissue both are 0
+TEST(NeedleTissueTest, TheReportSaysHowTheTipIsHeld) {
+  const double quarter = 0.25 * MakeTissue().point_spacing;
+  for (TipHold hold : {TipHold::kQuarter, TipHold::kRamp, TipHold::kHandover}) {
+    for (SeedDistance seed : {SeedDistance::kDepth, SeedDistance::kLastPoint}) {
+      TissueCouplingConfig tissue = MakeTissue();
+      tissue.tip_hold = hold;
+      tissue.seed_distance = seed;
+      Scene scene(tissue);
+      int free_steps = 0, partial_steps = 0, held_steps = 0;
+      for (int k = 0; k < 45; ++k) {
+        const TissueCouplingReport before = scene.report();
+        const bool located =
+            before.phase == TissuePhase::kInside && scene.tissue().tip.tet >= 0;
+        const double past = seed == SeedDistance::kDepth
+                                ? before.depth - scene.tissue().last_seed_depth
+                                : before.past_last_point;
+        if (!located) {
+          EXPECT_EQ(before.past_seed, 0.0) << "step " << k;
+          EXPECT_EQ(before.tip_hold, 0.0) << "step " << k;
+        } else {
+          EXPECT_EQ(before.past_seed, past) << "step " << k;
+          double expected = 1.0;
+          if (hold == TipHold::kQuarter) expected = past >= quarter ? 1.0 : 0.0;
+          if (hold == TipHold::kRamp)
+            expected = past < 0.02 * quarter ? 0.0 : std::min(1.0, past / quarter);
+          EXPECT_NEAR(before.tip_hold, expected, 1e-12) << "step " << k << ", past " << past;
+        }
+        const NeedleStepReport r = scene.Step(0.3e-3, Eigen::Vector3d(2e-5, 0.0, 0.0));
+        ASSERT_TRUE(r.solve.converged);
+        if (!located || scene.report().depth < 0.004) continue;
+        if (before.tip_hold > 0.0) {
+          EXPECT_GT(scene.report().tip_force, 0.0) << "held at step " << k;
+        } else {
+          EXPECT_EQ(scene.report().tip_force, 0.0) << "free at step " << k;
+        }
+        free_steps += before.tip_hold == 0.0;
+        held_steps += before.tip_hold == 1.0;
+        partial_steps += before.tip_hold > 0.0 && before.tip_hold < 1.0;
+      }
+      EXPECT_GE(held_steps, 3);
+      if (hold != TipHold::kHandover) {
+        EXPECT_GE(free_steps, 1);
+      }
+      if (hold == TipHold::kRamp) {
+        EXPECT_GE(partial_steps, 3);
+      } else {
+        EXPECT_EQ(partial_steps, 0);
+      }
+    }
+  }
+}
+
 // CalcTipStretch, against what the coupling does: none before the puncture; with tip_hold quarter
 // the tip's hold carries force under a sideways drift exactly in the steps that start with no
 // free reach left, a point is seeded in exactly the steps whose advance covers the next seed's
