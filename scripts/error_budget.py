@@ -207,8 +207,8 @@ def needle_text(needle):
 def hold_text(hold):
     if hold is None:
         return ""
-    return "; tip hold model %.2f (%s switches), patient %.2f" % (
-        hold[0], ("%d" % hold[2]) if float(hold[2]).is_integer() else "%.1f" % hold[2], hold[1])
+    return "; tip hold model %.2f (%g switches), patient %.2f" % (hold[0], round(hold[2], 1),
+                                                                   hold[1])
 
 
 def main(argv):
